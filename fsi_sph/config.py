@@ -1,0 +1,364 @@
+"""Case files: TOML -> strict, typed, frozen config models.
+
+A case file is TOML. The presence of a table enables a physics module (``[solid.NAME]``
+builds a TLSPH body named NAME); absent tables cost nothing. ``extends = "file.toml"``
+(or a list of files, relative to the including file) merges shared fragments table by
+table, the including file winning. ``--set key.path=value`` overrides any key; the value
+is read as a TOML value, or as a plain string when it is not one.
+
+Every error is a :class:`ConfigError` whose message names the file, the key path and what
+is allowed; it never escapes as a traceback from the CLI (exit code 2).
+
+>>> cfg = load_config(None, text='[case]\\nt_end = 1.0\\ndx = 0.1\\n'
+...     '[solid.bar]\\nmaterial = {rho0 = 1000.0, E = 1e6, nu = 0.3}\\n'
+...     'blocks = [{origin = [0.0, 0.0], size = [1.0, 0.2]}]\\n')
+>>> cfg.solid["bar"].material.model, cfg.sph.kernel
+('stvk', 'cubic_spline')
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import tomllib
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+Vec2 = tuple[float, float]
+Positive = Annotated[float, Field(gt=0.0)]
+NonNegative = Annotated[float, Field(ge=0.0)]
+Name = Annotated[str, Field(pattern=r"^[A-Za-z_][A-Za-z0-9_]*$", max_length=64)]
+
+
+class ConfigError(Exception):
+    """A case file or override that cannot be used; the message says where and why."""
+
+
+class _Model(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=True)
+
+
+# ---------------------------------------------------------------------------- sections
+
+
+class Shape(_Model):
+    """An axis-aligned rectangle ``origin + [0, size]`` (m)."""
+
+    shape: Literal["rectangle"] = Field("rectangle", description="primitive kind")
+    origin: Vec2 = Field(description="lower-left corner (m)")
+    size: tuple[Positive, Positive] = Field(description="width and height (m), > 0")
+
+
+class CaseSection(_Model):
+    """Run control: duration, resolution, output cadence, gravity."""
+
+    name: str = Field("case", description="case name, used for output folders")
+    t_end: Positive = Field(description="simulated time (s)")
+    dx: Positive = Field(description="initial particle spacing for all bodies (m)")
+    output_every: Positive = Field(0.01, description="snapshot interval (s)")
+    probe_every: NonNegative = Field(0.0, description="probe sampling interval (s); 0 = every step")
+    gravity: Vec2 = Field((0.0, -9.81), description="body force per unit mass (m/s^2)")
+
+
+class SphSection(_Model):
+    """Shared SPH numerics."""
+
+    kernel: Literal["cubic_spline", "wendland_c2"] = Field(
+        "cubic_spline", description="smoothing kernel [F 5]; support 2h for both")
+    h_over_dx: Annotated[float, Field(ge=1.0, le=2.0)] = Field(
+        1.2, description="smoothing length over particle spacing")
+
+
+class Material(_Model):
+    """Elastic material of a TLSPH body (plane strain) [F 37-40]."""
+
+    model: Literal["stvk", "hooke_almansi", "neo_hookean"] = Field(
+        "stvk", description="St Venant-Kirchhoff, the source's Hooke law on the Almansi strain, "
+        "or compressible Neo-Hookean")
+    rho0: Positive = Field(description="reference density (kg/m^3)")
+    E: Positive = Field(description="Young's modulus (Pa)")
+    nu: Annotated[float, Field(gt=-1.0, lt=0.5)] = Field(description="Poisson's ratio, in (-1, 0.5)")
+
+
+class ArtificialViscosity(_Model):
+    """Monaghan artificial viscosity mapped to the reference frame [F 41-43]."""
+
+    alpha: NonNegative = Field(1.0, description="linear coefficient")
+    beta: NonNegative = Field(0.0, description="quadratic coefficient")
+
+
+class Hourglass(_Model):
+    """Hourglass (zero-energy mode) control after Ganzenmueller (2015); 0 turns it off."""
+
+    coefficient: NonNegative = Field(10.0, description="penalty coefficient alpha_HG")
+
+
+class UniformVelocity(_Model):
+    profile: Literal["uniform"]
+    value: Vec2 = Field(description="initial velocity (m/s)")
+
+
+class CantileverMode(_Model):
+    """First bending mode of a cantilever clamped at ``root_x`` [F 49-50]: velocity along
+    ``direction`` = tip_speed * f(x - root_x) / f(length); zero at x < root_x."""
+
+    profile: Literal["cantilever_mode"]
+    root_x: float = Field(description="x of the clamped root (m)")
+    length: Positive = Field(description="free length L (m)")
+    tip_speed: float = Field(description="initial tip speed (m/s)")
+    kl: Positive = Field(1.875, description="mode wave number times L (1.875 for mode 1)")
+    direction: Vec2 = Field((0.0, 1.0), description="unit direction of the velocity")
+
+
+InitialVelocity = Annotated[UniformVelocity | CantileverMode, Field(discriminator="profile")]
+
+
+class SolidBody(_Model):
+    """One total-Lagrangian SPH elastic body [F 34-45]."""
+
+    material: Material
+    blocks: Annotated[list[Shape], Field(min_length=1)] = Field(
+        description="shapes filled with particles")
+    clamp: list[Shape] = Field([], description="particles inside these shapes are held fixed")
+    initial_velocity: InitialVelocity | None = None
+    artificial_viscosity: ArtificialViscosity = ArtificialViscosity()
+    hourglass: Hourglass = Hourglass()
+    damping: NonNegative = Field(0.0, description="Rayleigh mass-proportional damping xi (1/s) [F 45]")
+    cfl: Annotated[float, Field(gt=0.0, le=1.0)] = Field(
+        0.3, description="dt = cfl * h / (c_s + |v|max)")
+
+
+class Probe(_Model):
+    """A time series recorded during the run."""
+
+    name: Name
+    kind: Literal["point_displacement", "energy"] = Field(
+        description="point_displacement: the particle nearest to `at` in the reference "
+        "configuration; energy: kinetic and strain energy of a body")
+    body: Name
+    at: Vec2 | None = Field(None, description="reference position (m), for point_displacement")
+
+    @model_validator(mode="after")
+    def _needs_at(self):
+        if self.kind == "point_displacement" and self.at is None:
+            raise ValueError("a point_displacement probe needs `at = [x, y]`")
+        return self
+
+
+class Config(_Model):
+    """A whole scene."""
+
+    case: CaseSection
+    sph: SphSection = SphSection()
+    solid: dict[Name, SolidBody] = Field({}, description="TLSPH elastic bodies by name")
+    probes: list[Probe] = []
+
+    @model_validator(mode="after")
+    def _cross_references(self):
+        bodies = set(self.solid)
+        if not bodies:
+            raise ValueError("the scene has no body: add a [solid.NAME] table")
+        seen = set()
+        for k, p in enumerate(self.probes):
+            if p.body not in bodies:
+                raise ValueError(f"probes[{k}].body = {p.body!r} names no body; "
+                                 f"bodies are: {', '.join(sorted(bodies))}")
+            if p.name in seen:
+                raise ValueError(f"probes[{k}].name = {p.name!r} is used twice")
+            seen.add(p.name)
+        return self
+
+    def modules(self) -> list[str]:
+        """The physics modules this scene enables, in the order the step runs them."""
+        mods = []
+        for name in self.solid:
+            mods.append(f"tlsph_elastic_solid:{name}")
+        return mods
+
+    def to_json(self) -> str:
+        return json.dumps(self.model_dump(mode="json"), indent=1)
+
+
+# ---------------------------------------------------------------------------- loading
+
+
+def _read_toml(path: Path, included_from: str | None) -> dict:
+    where = f" (extends of {included_from})" if included_from else ""
+    if not path.exists():
+        raise ConfigError(f"{path}: file not found{where}")
+    if path.is_dir():
+        raise ConfigError(f"{path}: is a directory, expected a .toml case file{where}")
+    try:
+        raw = path.read_bytes()
+    except OSError as e:
+        raise ConfigError(f"{path}: cannot read file{where}: {e.strerror}") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError:
+        raise ConfigError(f"{path}: not a UTF-8 text file{where}") from None
+    return _parse_toml(text, str(path))
+
+
+def _parse_toml(text: str, label: str) -> dict:
+    if not text.strip():
+        raise ConfigError(f"{label}: file is empty; a case needs at least a [case] table")
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise ConfigError(f"{label}: TOML syntax error: {e}") from None
+
+
+def _merge(base: dict, top: dict) -> dict:
+    """Deep merge: tables merge key by key, everything else in ``top`` replaces ``base``."""
+    out = dict(base)
+    for k, v in top.items():
+        if isinstance(v, dict) and isinstance(out.get(k), dict):
+            out[k] = _merge(out[k], v)
+        else:
+            out[k] = v
+    return out
+
+
+def _resolve_extends(data: dict, path: Path | None, stack: tuple[Path, ...]) -> dict:
+    ext = data.pop("extends", None)
+    if ext is None:
+        return data
+    label = str(path) if path else "<text>"
+    if isinstance(ext, str):
+        ext = [ext]
+    if not isinstance(ext, list) or not all(isinstance(e, str) for e in ext):
+        raise ConfigError(f"{label}: extends: expected a file name or a list of file names")
+    base: dict = {}
+    for e in ext:
+        parent = path.parent if path else Path.cwd()
+        target = (parent / e).resolve()
+        if target in stack:
+            chain = " -> ".join(str(p) for p in (*stack, target))
+            raise ConfigError(f"{label}: extends: cycle: {chain}")
+        sub = _read_toml(target, label)
+        sub = _resolve_extends(sub, target, (*stack, target))
+        base = _merge(base, sub)
+    return _merge(base, data)
+
+
+def _parse_value(text: str) -> Any:
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text
+
+
+def apply_overrides(data: dict, overrides: list[str], label: str) -> dict:
+    """Apply ``key.path=value`` overrides to the raw (merged) table."""
+    data = json.loads(json.dumps(data))  # deep copy of plain TOML data
+    for item in overrides:
+        key, sep, value = item.partition("=")
+        key = key.strip()
+        if not sep or not key or any(not part for part in key.split(".")):
+            raise ConfigError(f"--set {item!r}: expected KEY.PATH=VALUE, e.g. case.dx=0.002")
+        node = data
+        parts = key.split(".")
+        for part in parts[:-1]:
+            nxt = node.setdefault(part, {})
+            if not isinstance(nxt, dict):
+                raise ConfigError(f"{label}: --set {key}: {part!r} is a value, not a table")
+            node = nxt
+        node[parts[-1]] = _parse_value(value.strip())
+    return data
+
+
+def _allowed_keys(loc: tuple) -> list[str] | None:
+    """Field names allowed at the table that contains ``loc[-1]`` (None if unknown)."""
+    model: Any = Config
+    for part in loc[:-1]:
+        if isinstance(model, type) and issubclass(model, BaseModel):
+            field = model.model_fields.get(part)
+            if field is None:
+                return None
+            model = _inner_model(field.annotation)
+        elif isinstance(part, (int, str)):
+            continue
+    if isinstance(model, type) and issubclass(model, BaseModel):
+        return sorted(model.model_fields)
+    return None
+
+
+def _inner_model(annotation: Any) -> Any:
+    """Unwrap list[...], dict[..., M], Optional[M] down to a model class if there is one."""
+    args = getattr(annotation, "__args__", None)
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return annotation
+    if args:
+        for a in reversed(args):
+            m = _inner_model(a)
+            if m is not None:
+                return m
+    meta = getattr(annotation, "__metadata__", None)
+    if meta is not None:
+        return _inner_model(annotation.__origin__)
+    return None
+
+
+def _format_errors(err: ValidationError, label: str, data: dict) -> str:
+    lines = []
+    for e in err.errors():
+        loc = tuple(p for p in e["loc"] if p not in ("cantilever_mode", "uniform"))
+        path = ".".join(str(p) if not isinstance(p, int) else f"[{p}]" for p in loc)
+        path = path.replace(".[", "[")
+        msg = e["msg"]
+        if e["type"] == "extra_forbidden":
+            allowed = _allowed_keys(loc)
+            what = "table" if isinstance(e.get("input"), dict) else "key"
+            msg = f"unknown {what}" + (f"; allowed: {', '.join(allowed)}" if allowed else "")
+        elif e["type"] == "missing":
+            msg = "required " + ("table" if loc and loc[-1] in ("case", "material") else "key")
+            msg += " is missing"
+        elif e["type"] == "value_error":
+            msg = msg.removeprefix("Value error, ")
+        else:
+            got = e.get("input")
+            if not isinstance(got, dict):
+                msg += f" (got {json.dumps(got)})"
+        lines.append(f"{label}: {path}: {msg}" if path else f"{label}: {msg}")
+    return "\n".join(lines)
+
+
+def load_config(path: str | Path | None, overrides: list[str] | None = None,
+                text: str | None = None) -> Config:
+    """Read, merge (``extends``), override and validate a case.
+
+    Parameters
+    ----------
+    path : the case file; ``None`` with ``text`` to parse a string.
+    overrides : ``["key.path=value", ...]`` applied after ``extends``.
+    text : TOML source used instead of reading ``path``.
+
+    Raises
+    ------
+    ConfigError : with a message naming the file, the key path and what is allowed.
+    """
+    if text is not None:
+        label = str(path) if path else "<text>"
+        data = _parse_toml(text, label)
+        p = Path(path).resolve() if path else None
+    else:
+        p = Path(path).resolve()
+        label = str(path)
+        data = _read_toml(p, None)
+    data = _resolve_extends(data, p, (p,) if p else ())
+    data = apply_overrides(data, overrides or [], label)
+    case = data.get("case")
+    if isinstance(case, dict) and "name" not in case and p is not None:
+        case["name"] = p.stem
+    for k in ("t_end", "dx"):  # catch NaN/inf that TOML allows
+        v = case.get(k) if isinstance(case, dict) else None
+        if isinstance(v, float) and not math.isfinite(v):
+            raise ConfigError(f"{label}: case.{k}: must be a finite number (got {v})")
+    try:
+        return Config.model_validate_json(json.dumps(data), strict=True)
+    except ValidationError as e:
+        raise ConfigError(_format_errors(e, label, data)) from None
+    except ValueError as e:  # json cannot encode NaN/inf comparisons etc.
+        raise ConfigError(f"{label}: {e}") from None

@@ -1,0 +1,97 @@
+"""O(N) cell-linked-list neighbour search producing CSR pair lists.
+
+For destination points ``xd`` and source points ``xs`` the result is
+``(nbr_start, nbr_j)``: the sources within ``radius`` of destination ``i`` are
+``nbr_j[nbr_start[i]:nbr_start[i+1]]``, in increasing index order. With
+``exclude_self`` (same set as source and destination) ``j == i`` is left out.
+"""
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def _build_cells(xs, lo, cell, ncx, ncy):
+    """Sort sources into cells: returns (cell_start, cell_items) in CSR form."""
+    n = xs.shape[0]
+    cid = np.empty(n, dtype=np.int64)
+    count = np.zeros(ncx * ncy + 1, dtype=np.int64)
+    for j in range(n):
+        cx = min(max(int((xs[j, 0] - lo[0]) / cell), 0), ncx - 1)
+        cy = min(max(int((xs[j, 1] - lo[1]) / cell), 0), ncy - 1)
+        cid[j] = cx * ncy + cy
+        count[cid[j] + 1] += 1
+    for c in range(ncx * ncy):
+        count[c + 1] += count[c]
+    fill = count[:-1].copy()
+    items = np.empty(n, dtype=np.int64)
+    for j in range(n):  # j increasing: items stay sorted within a cell
+        items[fill[cid[j]]] = j
+        fill[cid[j]] += 1
+    return count, items
+
+
+@njit(cache=True)
+def _count_or_fill(xd, xs, lo, cell, ncx, ncy, cstart, citems, r2max, exclude_self,
+                   out_count, out_start, out_j, fill):
+    for i in range(xd.shape[0]):
+        cx = int((xd[i, 0] - lo[0]) / cell)
+        cy = int((xd[i, 1] - lo[1]) / cell)
+        k = 0
+        for ax in range(cx - 1, cx + 2):
+            if ax < 0 or ax >= ncx:
+                continue
+            for ay in range(cy - 1, cy + 2):
+                if ay < 0 or ay >= ncy:
+                    continue
+                c = ax * ncy + ay
+                for s in range(cstart[c], cstart[c + 1]):
+                    j = citems[s]
+                    if exclude_self and j == i:
+                        continue
+                    dx0 = xd[i, 0] - xs[j, 0]
+                    dx1 = xd[i, 1] - xs[j, 1]
+                    if dx0 * dx0 + dx1 * dx1 < r2max:
+                        if fill:
+                            out_j[out_start[i] + k] = j
+                        k += 1
+        if not fill:
+            out_count[i] = k
+
+
+def find_neighbors(xd, xs, radius, exclude_self=False):
+    """Neighbours of each destination point among the sources, within ``radius``.
+
+    Parameters
+    ----------
+    xd : (nd, 2) float64 array, destination positions.
+    xs : (ns, 2) float64 array, source positions.
+    radius : float, search radius (kernel support, ``2 h``).
+    exclude_self : bool, leave out ``j == i`` (only meaningful when ``xd is xs``).
+
+    Returns
+    -------
+    nbr_start : (nd + 1,) int64, nbr_j : (npairs,) int64. Within each row the
+    sources are grouped by cell and sorted by index inside a cell.
+    """
+    xd = np.ascontiguousarray(xd, dtype=np.float64)
+    xs = np.ascontiguousarray(xs, dtype=np.float64)
+    nd = xd.shape[0]
+    if nd == 0 or xs.shape[0] == 0:
+        return np.zeros(nd + 1, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    lo = np.minimum(xd.min(axis=0), xs.min(axis=0)) - radius
+    hi = np.maximum(xd.max(axis=0), xs.max(axis=0)) + radius
+    ncx = max(int((hi[0] - lo[0]) / radius) + 1, 1)
+    ncy = max(int((hi[1] - lo[1]) / radius) + 1, 1)
+    cstart, citems = _build_cells(xs, lo, radius, ncx, ncy)
+    count = np.zeros(nd, dtype=np.int64)
+    start = np.zeros(nd + 1, dtype=np.int64)
+    dummy = np.zeros(0, dtype=np.int64)
+    r2 = radius * radius
+    _count_or_fill(xd, xs, lo, radius, ncx, ncy, cstart, citems, r2, exclude_self,
+                   count, start, dummy, False)
+    np.cumsum(count, out=start[1:])
+    nbr_j = np.empty(start[-1], dtype=np.int64)
+    _count_or_fill(xd, xs, lo, radius, ncx, ncy, cstart, citems, r2, exclude_self,
+                   count, start, nbr_j, True)
+    return start, nbr_j

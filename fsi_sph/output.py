@@ -1,0 +1,168 @@
+"""One HDF5 file per run (h5py), with an XDMF sidecar for ParaView.
+
+Layout::
+
+    /                       attrs: version, versions (JSON), git_sha, config (JSON), case_file,
+                                   status ("running" | "completed" | "failed: ..."), created
+    /bodies/<body>/static/<field>          reference fields, written once
+    /snapshots/<k:06d>      attrs: t, step
+    /snapshots/<k>/<body>/<field>          snapshot fields
+    /probes/<name>          (n, 1 + ncol) float64, resizable; attrs columns
+    /timing                 attrs: per-phase wall time (s), steps, particle_steps, loop_time_s
+    /steps                  per-step records (t, dt, n_sub) as a resizable table
+
+The file is opened, written and closed at every snapshot: between writes it is always a
+complete, readable HDF5 file, and a run that fails records why in ``status`` and keeps every
+snapshot written before the failure.
+"""
+
+from __future__ import annotations
+
+import datetime
+import json
+import logging
+import subprocess
+import sys
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+log = logging.getLogger(__name__)
+
+
+def versions() -> dict:
+    """Versions of Python and of the libraries the results depend on."""
+    import numba
+    import pyamg
+    import scipy
+
+    from fsi_sph import __version__
+
+    return {"fsi_sph": __version__, "python": sys.version.split()[0], "numpy": np.__version__,
+            "numba": numba.__version__, "scipy": scipy.__version__, "pyamg": pyamg.__version__,
+            "h5py": h5py.__version__}
+
+
+def git_sha() -> str:
+    """The commit of the source tree, or "unknown" outside a git checkout."""
+    try:
+        here = Path(__file__).resolve().parent
+        out = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=here,
+                             capture_output=True, text=True, timeout=5)
+        return out.stdout.strip() or "unknown"
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+
+
+def _append_rows(group, name, rows, columns):
+    rows = np.asarray(rows, dtype=np.float64)
+    if name not in group:
+        ds = group.create_dataset(name, shape=(0, rows.shape[1]), maxshape=(None, rows.shape[1]),
+                                  dtype=np.float64, chunks=(1024, rows.shape[1]))
+        ds.attrs["columns"] = json.dumps(list(columns))
+    ds = group[name]
+    n0 = ds.shape[0]
+    ds.resize(n0 + len(rows), axis=0)
+    ds[n0:] = rows
+
+
+class RunWriter:
+    """Writes a run to ``path`` (``.h5``) and its XDMF sidecar (``.xmf``)."""
+
+    def __init__(self, path, config_json: str, case_file: str | None, static: dict):
+        self.path = Path(path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.xmf_path = self.path.with_suffix(".xmf")
+        self.snapshots: list[tuple[str, float, dict]] = []  # (group, t, {body: {field: shape}})
+        with h5py.File(self.path, "w") as f:
+            f.attrs["version"] = versions()["fsi_sph"]
+            f.attrs["versions"] = json.dumps(versions())
+            f.attrs["git_sha"] = git_sha()
+            f.attrs["config"] = config_json
+            f.attrs["case_file"] = case_file or ""
+            f.attrs["created"] = datetime.datetime.now().isoformat(timespec="seconds")
+            f.attrs["status"] = "running"
+            for body, fields in static.items():
+                g = f.create_group(f"bodies/{body}/static")
+                for k, v in fields.items():
+                    g.create_dataset(k, data=v)
+            f.create_group("snapshots")
+            f.create_group("probes")
+            f.create_group("timing")
+
+    def write(self, t, step, bodies: dict, probes: dict, step_rows, timing: dict,
+              status="running"):
+        """Append a snapshot (``bodies``: {body: {field: array}}), the probe rows sampled
+        since the last write, per-step rows and the timers; then close the file."""
+        with h5py.File(self.path, "a") as f:
+            shapes = {}
+            if bodies is not None:
+                name = f"snapshots/{len(self.snapshots):06d}"
+                g = f.create_group(name)
+                g.attrs["t"] = t
+                g.attrs["step"] = step
+                for body, fields in bodies.items():
+                    gb = g.create_group(body)
+                    shapes[body] = {}
+                    for k, v in fields.items():
+                        gb.create_dataset(k, data=v)
+                        shapes[body][k] = v.shape
+                self.snapshots.append((name, t, shapes))
+            for pname, (columns, rows) in probes.items():
+                if rows:
+                    _append_rows(f["probes"], pname, rows, ("t", *columns))
+            if len(step_rows):
+                _append_rows(f, "steps", step_rows, ("t", "dt", "n_sub"))
+            for k, v in timing.items():
+                f["timing"].attrs[k] = v
+            f.attrs["status"] = status
+        if bodies is not None:
+            self._write_xdmf()
+
+    def finish(self, status, timing: dict):
+        with h5py.File(self.path, "a") as f:
+            for k, v in timing.items():
+                f["timing"].attrs[k] = v
+            f.attrs["status"] = status
+
+    def _write_xdmf(self):
+        """Temporal collection of per-body point clouds; ParaView opens it with the Xdmf3 reader."""
+        h5 = self.path.name
+        parts = ['<?xml version="1.0" ?>', '<Xdmf Version="3.0">', "<Domain>",
+                 '<Grid Name="run" GridType="Collection" CollectionType="Temporal">']
+        for name, t, shapes in self.snapshots:
+            parts.append(f'<Grid Name="{name}" GridType="Collection" CollectionType="Spatial">')
+            parts.append(f'<Time Value="{t:.9g}"/>')
+            for body, fields in shapes.items():
+                n = fields["x"][0]
+                parts.append(f'<Grid Name="{body}" GridType="Uniform">')
+                parts.append(f'<Topology TopologyType="Polyvertex" NumberOfElements="{n}"/>')
+                parts.append('<Geometry GeometryType="XY">')
+                parts.append(f'<DataItem Dimensions="{n} 2" Format="HDF" NumberType="Float" '
+                             f'Precision="8">{h5}:/{name}/{body}/x</DataItem></Geometry>')
+                for field, shape in fields.items():
+                    if len(shape) == 1:
+                        kind, dims = "Scalar", f"{n}"
+                    elif len(shape) == 2:
+                        kind, dims = "Vector", f"{n} {shape[1]}"
+                    else:
+                        continue  # 2x2 tensors: in the .h5 only
+                    parts.append(f'<Attribute Name="{field}" AttributeType="{kind}" Center="Node">'
+                                 f'<DataItem Dimensions="{dims}" Format="HDF" NumberType="Float" '
+                                 f'Precision="8">{h5}:/{name}/{body}/{field}</DataItem></Attribute>')
+                parts.append("</Grid>")
+            parts.append("</Grid>")
+        parts += ["</Grid>", "</Domain>", "</Xdmf>", ""]
+        tmp = self.xmf_path.with_suffix(".xmf.tmp")
+        tmp.write_text("\n".join(parts))
+        tmp.replace(self.xmf_path)
+
+
+def read_probe(path, name):
+    """(t, {column: values}) of a probe in a run file."""
+    with h5py.File(path, "r") as f:
+        ds = f["probes"][name]
+        cols = json.loads(ds.attrs["columns"])
+        data = ds[()]
+    return data[:, 0], {c: data[:, k] for k, c in enumerate(cols) if k > 0}

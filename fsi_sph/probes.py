@@ -1,0 +1,46 @@
+"""Probes: small time series sampled during a run (tip displacement, energies)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class PointDisplacement:
+    """Displacement and position of the particle nearest to ``at`` in the reference
+    configuration. Columns: ``ux, uy, x, y``."""
+
+    columns = ("ux", "uy", "x", "y")
+
+    def __init__(self, name, body, at):
+        self.name = name
+        self.body = body
+        x0 = body.body["x0"]
+        self.index = int(np.argmin(np.hypot(x0[:, 0] - at[0], x0[:, 1] - at[1])))
+        self.x0 = x0[self.index].copy()
+
+    def sample(self):
+        x = self.body.body["x"][self.index]
+        return [x[0] - self.x0[0], x[1] - self.x0[1], x[0], x[1]]
+
+
+class Energy:
+    """Kinetic, strain and total mechanical energy of a body (J per metre of depth)."""
+
+    columns = ("kinetic", "strain", "total")
+
+    def __init__(self, name, body):
+        self.name = name
+        self.body = body
+
+    def sample(self):
+        k = self.body.kinetic_energy()
+        s = self.body.strain_energy()
+        return [k, s, k + s]
+
+
+def make_probe(cfg, bodies):
+    """Build the probe a ``Probe`` config entry asks for (bodies by name)."""
+    body = bodies[cfg.body]
+    if cfg.kind == "point_displacement":
+        return PointDisplacement(cfg.name, body, cfg.at)
+    return Energy(cfg.name, body)

@@ -1,0 +1,1 @@
+"""Total-Lagrangian SPH elastic solids."""

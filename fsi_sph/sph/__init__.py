@@ -1,0 +1,1 @@
+"""Shared SPH numerics: smoothing kernels and generic operators."""
