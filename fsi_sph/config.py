@@ -205,9 +205,13 @@ def _parse_toml(text: str, label: str) -> dict:
     if not text.strip():
         raise ConfigError(f"{label}: file is empty; a case needs at least a [case] table")
     try:
-        return tomllib.loads(text)
+        data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise ConfigError(f"{label}: TOML syntax error: {e}") from None
+    if not data:
+        raise ConfigError(f"{label}: file has no keys or tables; a case needs at least a "
+                          "[case] table")
+    return data
 
 
 def _merge(base: dict, top: dict) -> dict:
@@ -270,34 +274,47 @@ def apply_overrides(data: dict, overrides: list[str], label: str) -> dict:
 
 
 def _allowed_keys(loc: tuple) -> list[str] | None:
-    """Field names allowed at the table that contains ``loc[-1]`` (None if unknown)."""
-    model: Any = Config
+    """Field names allowed in the table that holds ``loc[-1]`` (None if unknown)."""
+    ann: Any = Config
     for part in loc[:-1]:
-        if isinstance(model, type) and issubclass(model, BaseModel):
-            field = model.model_fields.get(part)
-            if field is None:
-                return None
-            model = _inner_model(field.annotation)
-        elif isinstance(part, (int, str)):
-            continue
-    if isinstance(model, type) and issubclass(model, BaseModel):
-        return sorted(model.model_fields)
+        ann = _child(ann, part)
+        if ann is None:
+            return None
+    model = _inner_model(ann)
+    return sorted(model.model_fields) if model is not None else None
+
+
+def _child(ann: Any, part: Any) -> Any:
+    """The annotation of item ``part`` (a field name, dict key or list index) of ``ann``."""
+    meta = getattr(ann, "__metadata__", None)
+    if meta is not None:  # Annotated[X, ...]
+        return _child(ann.__origin__, part)
+    if isinstance(ann, type) and issubclass(ann, BaseModel):
+        field = ann.model_fields.get(part) if isinstance(part, str) else None
+        return field.annotation if field is not None else None
+    origin = getattr(ann, "__origin__", None)
+    args = getattr(ann, "__args__", ())
+    if origin is dict:
+        return args[1]
+    if origin in (list, tuple):
+        return args[0]
+    for a in args:  # unions: the first member that has this item
+        c = _child(a, part)
+        if c is not None:
+            return c
     return None
 
 
 def _inner_model(annotation: Any) -> Any:
-    """Unwrap list[...], dict[..., M], Optional[M] down to a model class if there is one."""
-    args = getattr(annotation, "__args__", None)
+    """Unwrap list[...], dict[..., M], Optional[M], Annotated[M, ...] down to a model class."""
     if isinstance(annotation, type) and issubclass(annotation, BaseModel):
         return annotation
-    if args:
-        for a in reversed(args):
-            m = _inner_model(a)
-            if m is not None:
-                return m
-    meta = getattr(annotation, "__metadata__", None)
-    if meta is not None:
+    if getattr(annotation, "__metadata__", None) is not None:
         return _inner_model(annotation.__origin__)
+    for a in reversed(getattr(annotation, "__args__", ())):
+        m = _inner_model(a)
+        if m is not None:
+            return m
     return None
 
 
