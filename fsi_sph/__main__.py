@@ -73,7 +73,7 @@ def _set_threads(n):
 
 
 def cmd_run(args):
-    from fsi_sph.config import load_config
+    from fsi_sph.config import ConfigError, load_config
     from fsi_sph.simulation import Simulation
 
     case = Path(args.case) if args.case else DEFAULT_CASE
@@ -83,7 +83,10 @@ def cmd_run(args):
     _set_threads(args.threads)
     out = Path(args.out) if args.out else Path("runs") / cfg.case.name
     log.info("case %s: %s", case, ", ".join(cfg.modules()))
-    sim = Simulation(cfg)
+    try:
+        sim = Simulation(cfg)
+    except ConfigError as e:  # raised while building the scene: name the file too
+        raise ConfigError(f"{case}: {e}") from None
     log.info("%d particles, set-up %.2f s (JIT compile included)", sim.n_particles,
              sim.timings["setup"])
     s = sim.run(out_dir=out, max_steps=args.max_steps, progress=not args.no_progress,

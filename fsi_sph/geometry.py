@@ -4,12 +4,13 @@ Particles sit at cell centres of a square lattice of spacing ``dx`` aligned with
 shape's origin, so a rectangle of size ``(a, b)`` holds ``round(a/dx) * round(b/dx)``
 particles, each with volume ``dx^2``.
 
->>> import numpy as np
 >>> fill_rectangle((0.0, 0.0), (0.3, 0.2), 0.1).shape
 (6, 2)
 """
 
 import numpy as np
+
+from fsi_sph.config import ConfigError
 
 
 def fill_rectangle(origin, size, dx):
@@ -30,9 +31,18 @@ def in_rectangle(x, origin, size):
             & (x[:, 1] >= origin[1]) & (x[:, 1] <= origin[1] + size[1]))
 
 
-def fill_shapes(shapes, dx):
-    """Union of the lattice fills of ``shapes`` (config ``Shape`` models), duplicates removed."""
-    pts = [fill_rectangle(s.origin, s.size, dx) for s in shapes]
+def fill_shapes(shapes, dx, key="blocks"):
+    """Union of the lattice fills of ``shapes`` (config ``Shape`` models), duplicates removed.
+
+    A shape that holds no particle at this ``dx`` is a :class:`ConfigError` naming ``key[k]``.
+    """
+    pts = []
+    for k, s in enumerate(shapes):
+        try:
+            pts.append(fill_rectangle(s.origin, s.size, dx))
+        except ValueError as e:
+            raise ConfigError(f"{key}[{k}]: {e}; make it at least dx wide and high "
+                              f"or lower case.dx") from None
     x = np.concatenate(pts, axis=0)
     if len(pts) > 1:
         key = np.round(x / (1e-6 * dx)).astype(np.int64)

@@ -11,6 +11,7 @@ import math
 
 import numpy as np
 
+from fsi_sph.config import ConfigError
 from fsi_sph.geometry import fill_shapes, in_shapes
 from fsi_sph.neighbors import find_neighbors
 from fsi_sph.particles import Body, FieldSpec
@@ -54,15 +55,18 @@ class ElasticBody:
         self.h = sph.h_over_dx * dx
         self.kernel = KERNELS[sph.kernel]
         self.gravity = np.asarray(gravity, dtype=np.float64)
-        x0 = fill_shapes(cfg.blocks, dx)
+        x0 = fill_shapes(cfg.blocks, dx, f"solid.{name}.blocks")
         self.body = b = Body(name, "solid", len(x0))
         b.allocate(self.fields)
         b["x0"][:] = x0
         b["x"][:] = x0
         b["vol"][:] = dx * dx
         b["m"][:] = mat.rho0 * dx * dx
-        if cfg.clamp:
-            b["free"][:] = ~in_shapes(x0, cfg.clamp)
+        for k, shape in enumerate(cfg.clamp):
+            held = in_shapes(x0, [shape])
+            if not held.any():
+                raise ConfigError(f"solid.{name}.clamp[{k}]: holds no particle of the body")
+            b["free"][held] = False
         self._set_initial_velocity(cfg.initial_velocity)
         self._build_reference()
         self.update_stress()

@@ -136,3 +136,15 @@ def test_bad_cli_options(tmp_path, capsys):
     assert main(["plot", str(tmp_path / "none.h5")]) == 2
     err = capsys.readouterr().err
     assert "Traceback" not in err and "no_such_case" in err
+
+
+@pytest.mark.parametrize("override,needle", [
+    ("case.dx=0.5", "solid.bar.blocks[0]"),
+    ("solid.bar.clamp=[{origin=[5.0,5.0],size=[0.1,0.1]}]", "solid.bar.clamp[0]"),
+])
+def test_bad_geometry_exit_code_2(tmp_path, capsys, override, needle):
+    p = _case(tmp_path, GOOD)
+    assert main(["run", str(p), "--set", override, "--max-steps", "0", "--out",
+                 str(tmp_path / "o"), "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert needle in err and str(p) in err and "Traceback" not in err
