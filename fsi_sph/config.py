@@ -79,7 +79,8 @@ class Material(_Model):
         "or compressible Neo-Hookean")
     rho0: Positive = Field(description="reference density (kg/m^3)")
     E: Positive = Field(description="Young's modulus (Pa)")
-    nu: Annotated[float, Field(gt=-1.0, lt=0.5)] = Field(description="Poisson's ratio, in (-1, 0.5)")
+    nu: Annotated[float, Field(gt=-1.0, lt=0.5)] = Field(
+        description="Poisson's ratio, in (-1, 0.5)")
 
 
 class ArtificialViscosity(_Model):
@@ -125,7 +126,8 @@ class SolidBody(_Model):
     initial_velocity: InitialVelocity | None = None
     artificial_viscosity: ArtificialViscosity = ArtificialViscosity()
     hourglass: Hourglass = Hourglass()
-    damping: NonNegative = Field(0.0, description="Rayleigh mass-proportional damping xi (1/s) [F 45]")
+    damping: NonNegative = Field(
+        0.0, description="Rayleigh mass-proportional damping xi (1/s) [F 45]")
     cfl: Annotated[float, Field(gt=0.0, le=1.0)] = Field(
         0.3, description="dt = cfl * h / (c_s + |v|max)")
 

@@ -54,7 +54,7 @@ def plot_run(path, out_dir, field="von_mises", max_snapshots=12):
         lo, hi = np.inf, -np.inf
         xlo, xhi = np.full(2, np.inf), np.full(2, -np.inf)
         for k in pick:
-            for b, g in f["snapshots"][snaps[k]].items():
+            for g in f["snapshots"][snaps[k]].values():
                 s = _scalar(g[field][()])
                 lo, hi = min(lo, s.min()), max(hi, s.max())
                 x = g["x"][()]
@@ -63,7 +63,7 @@ def plot_run(path, out_dir, field="von_mises", max_snapshots=12):
         for k in pick:
             g0 = f["snapshots"][snaps[k]]
             fig, ax = plt.subplots(figsize=(8, 4.5), layout="constrained")
-            for b, g in g0.items():
+            for g in g0.values():
                 x = g["x"][()]
                 sc = ax.scatter(x[:, 0], x[:, 1], c=_scalar(g[field][()]), s=4, vmin=lo, vmax=hi,
                                 cmap="viridis", linewidths=0)

@@ -169,4 +169,5 @@ class ElasticBody:
     def static(self):
         """Fields that never change, written once."""
         b = self.body
-        return {"x0": b["x0"], "m": b["m"], "vol": b["vol"], "clamped": (~b["free"]).astype(np.int8)}
+        return {"x0": b["x0"], "m": b["m"], "vol": b["vol"],
+                "clamped": (~b["free"]).astype(np.int8)}

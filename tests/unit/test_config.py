@@ -4,6 +4,7 @@ file, the key path and what is allowed; never a traceback."""
 import json
 
 import pytest
+from pydantic import ValidationError
 
 from fsi_sph.__main__ import main
 from fsi_sph.config import ConfigError, load_config
@@ -119,7 +120,7 @@ def test_resolved_config_is_json_and_frozen(tmp_path):
     data = json.loads(cfg.to_json())
     assert data["sph"]["kernel"] == "cubic_spline"  # defaults are resolved
     assert data["solid"]["bar"]["hourglass"]["coefficient"] == 10.0
-    with pytest.raises(Exception):
+    with pytest.raises(ValidationError):
         cfg.case.dx = 1.0
 
 

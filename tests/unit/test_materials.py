@@ -65,7 +65,8 @@ def test_pk1_is_energy_derivative(model, rng):
 
 
 def test_hooke_almansi_is_hooke_on_almansi_strain():
-    """The source's law [F 37-40]: sigma = lam tr(e) I + 2 mu e, e = F^-T E F^-1, P = J sigma F^-T."""
+    """The source's law [F 37-40]: sigma = lam tr(e) I + 2 mu e, e = F^-T E F^-1,
+    P = J sigma F^-T."""
     F = np.array([[1.1, 0.2], [-0.05, 0.9]])
     Ei = 0.5 * (F.T @ F - np.eye(2))
     Fi = np.linalg.inv(F)

@@ -1,0 +1,92 @@
+"""Shared pieces of the validation scripts: run a case, build the JSON record, write the
+table, the error-vs-wall-time plot and the JSON file.
+
+Record format (shared by every validation, records ordered coarse to fine)::
+
+    {"case": str, "reference": str, "machine": {...}, "records": [
+        {"label": str, "dx": float, "n_particles": int, "steps": int, "wall_time_s": float,
+         "particle_steps_per_s": float, "errors": {...}, "values": {...}}]}
+
+``wall_time_s`` is the run's whole wall time (set-up and stepping; the JIT compile of the
+first run is excluded by compiling before timing); ``particle_steps_per_s`` is measured over
+the stepping loop alone.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import platform
+import time
+from pathlib import Path
+
+log = logging.getLogger("fsi_sph.validation")
+
+REPO = Path(__file__).resolve().parents[1]
+CASES = REPO / "cases"
+
+
+def machine() -> dict:
+    """Where the numbers were measured."""
+    import numba
+
+    from fsi_sph.output import git_sha, versions
+
+    return {"platform": platform.platform(), "processor": platform.processor() or "unknown",
+            "cpus": os.cpu_count(), "numba_threads": numba.get_num_threads(),
+            "git_sha": git_sha(), "versions": versions()}
+
+
+def run_case(case, overrides=(), out_dir=None, progress=False):
+    """Build and run ``case`` with ``overrides``; returns (sim, summary) where summary adds
+    ``wall_time_s`` (set-up + loop) to :meth:`Simulation.run`'s summary."""
+    from fsi_sph.config import load_config
+    from fsi_sph.simulation import Simulation
+
+    t0 = time.perf_counter()
+    cfg = load_config(case, list(overrides))
+    sim = Simulation(cfg)
+    summary = sim.run(out_dir=out_dir, progress=progress, case_file=str(case))
+    summary["wall_time_s"] = time.perf_counter() - t0
+    return sim, summary
+
+
+def make_record(label, dx, summary, errors, values=None) -> dict:
+    return {"label": label, "dx": float(dx), "n_particles": int(summary["n_particles"]),
+            "steps": int(summary["steps"]), "wall_time_s": float(summary["wall_time_s"]),
+            "particle_steps_per_s": float(summary["particle_steps_per_s"]),
+            "errors": {k: float(v) for k, v in errors.items()},
+            "values": {k: (float(v) if isinstance(v, (int, float)) else v)
+                       for k, v in (values or {}).items()}}
+
+
+def markdown_table(result: dict) -> str:
+    """One row per record: resolution, particles, steps, wall time, throughput, errors."""
+    recs = result["records"]
+    ekeys = list(recs[0]["errors"]) if recs else []
+    head = ["label", "dx (m)", "particles", "steps", "wall time (s)", "particle-steps/s",
+            *[f"{k}" for k in ekeys]]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for r in recs:
+        row = [r["label"], f"{r['dx']:g}", str(r["n_particles"]), str(r["steps"]),
+               f"{r['wall_time_s']:.1f}", f"{r['particle_steps_per_s']:.3g}",
+               *[f"{r['errors'][k]:+.3f}" for k in ekeys]]
+        lines.append("| " + " | ".join(row) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def write_outputs(result: dict, out_dir, error_keys, title, marks=None) -> Path:
+    """Write ``result.json``, ``table.md`` and ``error_vs_time.png`` into ``out_dir``."""
+    from fsi_sph.plotting import error_vs_time
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "result.json").write_text(json.dumps(result, indent=1))
+    table = markdown_table(result)
+    (out / "table.md").write_text(f"# {title}\n\nReference: {result['reference']}\n\n{table}")
+    error_vs_time(result["records"], error_keys, title, out / "error_vs_time.png", marks=marks)
+    for line in table.splitlines():
+        log.info("%s", line)
+    log.info("wrote %s", out)
+    return out
