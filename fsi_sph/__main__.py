@@ -35,6 +35,9 @@ def _parser():
     r.add_argument("--set", dest="overrides", action="append", default=[], metavar="K=V",
                    help="override a case key, e.g. --set case.dx=0.004 (repeatable)")
     r.add_argument("--max-steps", type=int, help="stop after N steps")
+    r.add_argument("--restart", metavar="RUN.h5",
+                   help="continue this run from its last snapshot (appends to it unless --out "
+                   "is given; without CASE the run's stored config is used)")
     r.add_argument("--threads", type=int, help="numba threads (default: all cores)")
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
 
@@ -73,15 +76,32 @@ def _set_threads(n):
 
 
 def cmd_run(args):
-    from fsi_sph.config import ConfigError, load_config
-    from fsi_sph.simulation import Simulation
+    from fsi_sph.config import ConfigError, load_config, load_config_from_run
+    from fsi_sph.output import read_restart
+    from fsi_sph.simulation import Simulation, SimulationError
 
-    case = Path(args.case) if args.case else DEFAULT_CASE
     if args.max_steps is not None and args.max_steps < 0:
         raise UsageError(f"--max-steps {args.max_steps}: must be >= 0")
-    cfg = load_config(case, args.overrides)
+    resume = None
+    if args.restart:
+        resume = Path(args.restart)
+        if not resume.is_file():
+            raise UsageError(f"--restart {resume}: no such run file")
+        try:
+            read_restart(resume)
+        except ValueError as e:
+            raise UsageError(f"--restart {e}") from None
+    if args.case or resume is None:
+        case = Path(args.case) if args.case else DEFAULT_CASE
+        cfg = load_config(case, args.overrides)
+    else:
+        case = resume
+        cfg = load_config_from_run(resume, args.overrides)
     _set_threads(args.threads)
-    out = Path(args.out) if args.out else Path("runs") / cfg.case.name
+    if resume is not None:
+        out = Path(args.out) if args.out else None
+    else:
+        out = Path(args.out) if args.out else Path("runs") / cfg.case.name
     log.info("case %s: %s", case, ", ".join(cfg.modules()))
     try:
         sim = Simulation(cfg)
@@ -89,8 +109,13 @@ def cmd_run(args):
         raise ConfigError(f"{case}: {e}") from None
     log.info("%d particles, set-up %.2f s (JIT compile included)", sim.n_particles,
              sim.timings["setup"])
-    s = sim.run(out_dir=out, max_steps=args.max_steps, progress=not args.no_progress,
-                case_file=str(case))
+    try:
+        s = sim.run(out_dir=out, max_steps=args.max_steps, progress=not args.no_progress,
+                    case_file=str(case), resume=resume)
+    except SimulationError as e:
+        if "restart:" in str(e):  # the run file does not fit this scene: bad input
+            raise UsageError(f"--restart {resume}: {e}") from None
+        raise
     log.info("%s: %d steps to t = %.4g s in %.2f s (%.3g particle-steps/s); output %s",
              s["status"], s["steps"], s["t"], s["loop_time_s"], s["particle_steps_per_s"],
              s["output"])

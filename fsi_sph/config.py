@@ -132,6 +132,19 @@ class SolidBody(_Model):
         0.3, description="dt = cfl * h / (c_s + |v|max)")
 
 
+class GuardSection(_Model):
+    """Blow-up guard: checks that stop a run gone bad (see fsi_sph/guard.py)."""
+
+    check_every: Annotated[int, Field(ge=1)] = Field(
+        10, description="check every N steps (and before every snapshot)")
+    domain: Shape | None = Field(
+        None, description="particles must stay inside; default: the initial bounding box "
+        "grown by its own size on every side")
+    energy_factor: Annotated[float, Field(gt=1.0)] = Field(
+        10.0, description="stop when the kinetic energy exceeds this times the initial "
+        "kinetic + strain energy plus the work gravity can do across the domain")
+
+
 class Probe(_Model):
     """A time series recorded during the run."""
 
@@ -154,6 +167,7 @@ class Config(_Model):
 
     case: CaseSection
     sph: SphSection = SphSection()
+    guard: GuardSection = GuardSection()
     solid: dict[Name, SolidBody] = Field({}, description="TLSPH elastic bodies by name")
     probes: list[Probe] = []
 
@@ -381,3 +395,21 @@ def load_config(path: str | Path | None, overrides: list[str] | None = None,
         raise ConfigError(_format_errors(e, label, data)) from None
     except ValueError as e:  # json cannot encode NaN/inf comparisons etc.
         raise ConfigError(f"{label}: {e}") from None
+
+
+def load_config_from_run(run_file, overrides: list[str] | None = None) -> Config:
+    """The config stored in a run file (``fsi-sph run --restart RUN.h5`` without a case),
+    with ``overrides`` applied (e.g. a later ``case.t_end``)."""
+    from fsi_sph.output import read_config
+
+    label = f"{run_file} (stored config)"
+    try:
+        data = json.loads(read_config(run_file))
+    except (OSError, KeyError, ValueError) as e:
+        raise ConfigError(f"{run_file}: cannot read the config stored in the run file: {e}") \
+            from None
+    data = apply_overrides(data, overrides or [], label)
+    try:
+        return Config.model_validate_json(json.dumps(data), strict=True)
+    except ValidationError as e:
+        raise ConfigError(_format_errors(e, label, data)) from None

@@ -10,6 +10,11 @@ Layout::
     /probes/<name>          (n, 1 + ncol) float64, resizable; attrs columns
     /timing                 attrs: per-phase wall time (s), steps, particle_steps, loop_time_s
     /steps                  per-step records (t, dt, n_sub) as a resizable table
+    /restart                attrs: the clock (t, step, next_out, ...); /restart/<body>/<field>:
+                            every array of every body at the latest snapshot (``--restart``)
+
+A snapshot written after a failure from the last state that passed the guard has the attr
+``last_good = 1``.
 
 The file is opened, written and closed at every snapshot: between writes it is always a
 complete, readable HDF5 file, and a run that fails records why in ``status`` and keeps every
@@ -75,6 +80,7 @@ class RunWriter:
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self.xmf_path = self.path.with_suffix(".xmf")
         self.snapshots: list[tuple[str, float, dict]] = []  # (group, t, {body: {field: shape}})
+        self.last_snapshot_t = -np.inf
         with h5py.File(self.path, "w") as f:
             f.attrs["version"] = versions()["fsi_sph"]
             f.attrs["versions"] = json.dumps(versions())
@@ -91,17 +97,49 @@ class RunWriter:
             f.create_group("probes")
             f.create_group("timing")
 
+    @classmethod
+    def reopen(cls, path, t):
+        """Continue writing an existing run file from time ``t`` (restart): snapshots, probe
+        rows and step rows after ``t`` are dropped."""
+        self = cls.__new__(cls)
+        self.path = Path(path)
+        self.xmf_path = self.path.with_suffix(".xmf")
+        self.snapshots = []
+        self.last_snapshot_t = -np.inf
+        eps = 1e-12 * max(abs(t), 1.0)
+        with h5py.File(self.path, "a") as f:
+            for name in sorted(f["snapshots"]):
+                g = f["snapshots"][name]
+                if g.attrs["t"] > t + eps:
+                    del f["snapshots"][name]
+                    continue
+                shapes = {b: {k: g[b][k].shape for k in g[b]} for b in g}
+                self.snapshots.append((f"snapshots/{name}", float(g.attrs["t"]), shapes))
+                self.last_snapshot_t = float(g.attrs["t"])
+            tables = [f["probes"][k] for k in f["probes"]] + ([f["steps"]] if "steps" in f else [])
+            for ds in tables:
+                keep = int(np.searchsorted(ds[:, 0], t + eps, side="right"))
+                ds.resize(keep, axis=0)
+            f.attrs["status"] = "running"
+        return self
+
     def write(self, t, step, bodies: dict, probes: dict, step_rows, timing: dict,
-              status="running"):
+              status="running", restart=None, last_good=False):
         """Append a snapshot (``bodies``: {body: {field: array}}), the probe rows sampled
-        since the last write, per-step rows and the timers; then close the file."""
+        since the last write, per-step rows and the timers, and replace the restart state
+        (``restart = (clock, {body: {field: array}})``); then close the file."""
         with h5py.File(self.path, "a") as f:
             shapes = {}
             if bodies is not None:
                 name = f"snapshots/{len(self.snapshots):06d}"
+                while name in f:  # after a reopen the numbering goes on
+                    name = f"snapshots/{int(name.rsplit('/', 1)[1]) + 1:06d}"
                 g = f.create_group(name)
                 g.attrs["t"] = t
                 g.attrs["step"] = step
+                if last_good:
+                    g.attrs["last_good"] = 1
+                self.last_snapshot_t = t
                 for body, fields in bodies.items():
                     gb = g.create_group(body)
                     shapes[body] = {}
@@ -116,6 +154,8 @@ class RunWriter:
                 _append_rows(f, "steps", step_rows, ("t", "dt", "n_sub"))
             for k, v in timing.items():
                 f["timing"].attrs[k] = v
+            if restart is not None:
+                _write_restart(f, *restart)
             f.attrs["status"] = status
         if bodies is not None:
             self._write_xdmf()
@@ -157,6 +197,42 @@ class RunWriter:
         tmp = self.xmf_path.with_suffix(".xmf.tmp")
         tmp.write_text("\n".join(parts))
         tmp.replace(self.xmf_path)
+
+
+def _write_restart(f, clock, state):
+    if "restart" in f:
+        del f["restart"]
+    g = f.create_group("restart")
+    for k, v in clock.items():
+        g.attrs[k] = v
+    for body, arrays in state.items():
+        gb = g.create_group(body)
+        for k, v in arrays.items():
+            gb.create_dataset(k, data=v)
+
+
+def read_restart(path):
+    """(clock, {body: {field: array}}) of the latest restart state in a run file.
+
+    Raises ``ValueError`` with a plain message when the file has none."""
+    try:
+        f = h5py.File(path, "r")
+    except OSError as e:
+        raise ValueError(f"{path}: not a readable HDF5 run file ({e})") from None
+    with f:
+        if "restart" not in f:
+            raise ValueError(f"{path}: has no restart state (written at every snapshot since "
+                             "fsi_sph 0.1; the run wrote no snapshot)")
+        g = f["restart"]
+        clock = {k: g.attrs[k].item() for k in g.attrs}
+        state = {b: {k: g[b][k][()] for k in g[b]} for b in g}
+    return clock, state
+
+
+def read_config(path) -> str:
+    """The resolved config (JSON text) stored in a run file."""
+    with h5py.File(path, "r") as f:
+        return f.attrs["config"]
 
 
 def read_probe(path, name):

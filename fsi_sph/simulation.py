@@ -13,17 +13,12 @@ import time
 from collections import defaultdict
 from pathlib import Path
 
-import numpy as np
-
 from fsi_sph.config import Config
+from fsi_sph.guard import Guard, SimulationError
 from fsi_sph.probes import make_probe
 from fsi_sph.solid.tlsph import ElasticBody
 
 log = logging.getLogger(__name__)
-
-
-class SimulationError(RuntimeError):
-    """A run that cannot go on; the message says when, where and why."""
 
 
 class Simulation:
@@ -36,15 +31,23 @@ class Simulation:
         self.structures = {name: ElasticBody(name, sec, c.dx, cfg.sph, c.gravity)
                            for name, sec in cfg.solid.items()}
         self.probes = [make_probe(p, self.structures) for p in cfg.probes]
+        self.guard = Guard(cfg.guard, self.bodies(), c.gravity)
         self.t = 0.0
         self.n_steps = 0
         self.particle_steps = 0
+        self.next_out = 0.0  # time of the next snapshot
+        self.next_probe = 0.0  # time of the next probe sample
+        self.last_good = None  # (clock, state) at the last passed guard check
         self.timings: dict[str, float] = defaultdict(float)
         self.timings["setup"] = time.perf_counter() - t0
 
     @classmethod
     def from_config(cls, cfg: Config) -> Simulation:
         return cls(cfg)
+
+    def bodies(self) -> dict:
+        """Every physics object with particles, by name (each has ``.body``)."""
+        return dict(self.structures)
 
     @property
     def n_particles(self) -> int:
@@ -54,7 +57,12 @@ class Simulation:
     def step(self, dt_max=math.inf):
         """Advance every body by one macro step; returns (dt, {body: n_sub})."""
         # 1. time step: the fluid's when there is a fluid; else the stiffest structure's
-        dt = min(dt_max, min(b.stable_dt() for b in self.structures.values()))
+        limits = [b.stable_dt() for b in self.structures.values()]
+        dt = min(dt_max, *limits)
+        if not all(d > 0.0 for d in limits):  # NaN or collapsed: let the guard name the culprit
+            self.guard.check(self.t, self.n_steps, self.bodies())
+            raise SimulationError(f"time step {dt:.3g} s at t = {self.t:.6g} s, step "
+                                  f"{self.n_steps}: no stable step is possible")
         # 2. structures, each sub-cycled to its own stability limit
         t0 = time.perf_counter()
         n_sub = {}
@@ -69,84 +77,117 @@ class Simulation:
         self.n_steps += 1
         return dt, n_sub
 
-    # ------------------------------------------------------------------ guard
+    # ------------------------------------------------------------------ guard, state
     def check(self):
-        """Raise :class:`SimulationError` naming time, step, body, particle and quantity if a
-        position or velocity is NaN or infinite."""
-        for name, body in self.structures.items():
-            for q in ("x", "v"):
-                arr = body.body[q]
-                bad = ~np.isfinite(arr).all(axis=1)
-                if bad.any():
-                    i = int(np.flatnonzero(bad)[0])
+        """Run the blow-up guard (:mod:`fsi_sph.guard`); on success remember this state as
+        the last good one. Raises :class:`SimulationError` naming time, step, body, particle
+        and quantity."""
+        self.guard.check(self.t, self.n_steps, self.bodies())
+        self.last_good = (self.clock(), self.state())
+
+    def clock(self) -> dict:
+        return {"t": self.t, "step": self.n_steps, "particle_steps": self.particle_steps,
+                "next_out": self.next_out, "next_probe": self.next_probe}
+
+    def state(self) -> dict:
+        """Everything the step needs to continue: a copy of every body's arrays."""
+        return {name: {k: v.copy() for k, v in o.body.arrays.items()}
+                for name, o in self.bodies().items()}
+
+    def load_state(self, clock: dict, state: dict):
+        """Put a saved state back (restart); the bodies must match the saved ones."""
+        bodies = self.bodies()
+        if set(state) != set(bodies):
+            raise SimulationError(f"restart: the saved bodies {sorted(state)} are not the "
+                                  f"scene's {sorted(bodies)}")
+        for name, arrays in state.items():
+            b = bodies[name].body
+            for k, v in arrays.items():
+                if k not in b.arrays or b.arrays[k].shape != v.shape:
                     raise SimulationError(
-                        f"non-finite {q} at t = {self.t:.6g} s, step {self.n_steps}, body "
-                        f"{name!r}, particle {i} (of {int(bad.sum())} bad): {arr[i].tolist()}")
+                        f"restart: body {name!r} field {k!r} has shape {v.shape} in the file "
+                        f"but {b.arrays[k].shape if k in b.arrays else 'none'} in the scene")
+                b.arrays[k][...] = v
+        self.t = float(clock["t"])
+        self.n_steps = int(clock["step"])
+        self.particle_steps = int(clock["particle_steps"])
+        self.next_out = float(clock["next_out"])
+        self.next_probe = float(clock["next_probe"])
 
     # ------------------------------------------------------------------ run
-    def run(self, out_dir=None, max_steps=None, progress=True, case_file=None):
+    def run(self, out_dir=None, max_steps=None, progress=True, case_file=None, resume=None):
         """Step to ``case.t_end`` (or ``max_steps``), writing ``out_dir/run.h5`` if given.
 
+        ``resume``: a run file to continue: its latest restart state is loaded and the run
+        appends to it (or writes ``out_dir/run.h5`` when ``out_dir`` is given).
         Returns a summary dict (steps, wall times, particle-steps per second, status).
         """
-        from fsi_sph.output import RunWriter
+        from fsi_sph.output import RunWriter, read_restart
 
         c = self.cfg.case
         writer = None
+        if resume is not None:
+            clock, state = read_restart(resume)
+            self.load_state(clock, state)
+            if out_dir is None:
+                writer = RunWriter.reopen(resume, self.t)
         if out_dir is not None:
-            static = {n: b.static() for n, b in self.structures.items()}
+            static = {n: b.static() for n, b in self.bodies().items()}
             writer = RunWriter(Path(out_dir) / "run.h5", self.cfg.to_json(), case_file, static)
         rows = {p.name: (p.columns, []) for p in self.probes}
         step_rows = []
-        next_out = 0.0
-        next_probe = 0.0
         eps = 1e-12 * c.t_end
-        last_snapshot = [-1.0]
+        last_snapshot = [-1.0 if resume is None else self.t]
 
         def sample():
             for p in self.probes:
                 rows[p.name][1].append([self.t, *p.sample()])
 
-        def flush(snapshot, status="running"):
+        def flush(snapshot, status="running", good=None):
             nonlocal step_rows
             t0 = time.perf_counter()
-            if snapshot:
-                last_snapshot[0] = self.t
             if writer is not None:
-                snap = {n: b.snapshot() for n, b in self.structures.items()} if snapshot else None
+                snap = None
+                if snapshot:
+                    last_snapshot[0] = self.t
+                    snap = {n: b.snapshot() for n, b in self.bodies().items()}
                 writer.write(self.t, self.n_steps, snap, rows, step_rows, self._timing_attrs(),
-                             status)
+                             status, restart=(self.clock(), self.state()) if snapshot else None)
             for _, r in rows.values():
                 r.clear()
             step_rows = []
             self.timings["output"] += time.perf_counter() - t0
 
-        bar = _progress(progress, c.t_end)
+        bar = _progress(progress, c.t_end, self.t)
         loop_t0 = time.perf_counter()
         status = "completed"
         try:
-            sample()
-            next_probe += c.probe_every
-            flush(True)
-            next_out += c.output_every
+            if resume is None:
+                self.check()
+                sample()
+                self.next_probe += c.probe_every
+                flush(True)
+                self.next_out += c.output_every
+            steps0 = self.n_steps
             while self.t < c.t_end - eps:
-                if max_steps is not None and self.n_steps >= max_steps:
+                if max_steps is not None and self.n_steps - steps0 >= max_steps:
                     status = f"stopped at max_steps = {max_steps}"
                     break
                 dt, n_sub = self.step(dt_max=c.t_end - self.t)
                 step_rows.append([self.t, dt, max(n_sub.values())])
                 if bar is not None:
                     bar.update(dt)
-                if self.t >= next_probe - eps:
-                    t0 = time.perf_counter()
+                t0 = time.perf_counter()
+                snapshot_due = self.t >= self.next_out - eps
+                if snapshot_due or self.n_steps % self.cfg.guard.check_every == 0:
                     self.check()
+                if self.t >= self.next_probe - eps:
                     sample()
-                    next_probe = max(next_probe + c.probe_every, self.t)
-                    self.timings["probes"] += time.perf_counter() - t0
-                if self.t >= next_out - eps:
-                    self.check()
+                    self.next_probe = max(self.next_probe + c.probe_every, self.t)
+                self.timings["guard_probes"] += time.perf_counter() - t0
+                if snapshot_due:
+                    self.next_out += c.output_every
                     flush(True)
-                    next_out += c.output_every
             self.check()
         except SimulationError as e:
             status = f"failed: {e}"
@@ -159,8 +200,11 @@ class Simulation:
             if bar is not None:
                 bar.close()
             if writer is not None:
-                failed = status.startswith("failed")
-                flush(not failed and last_snapshot[0] < self.t, status)
+                if status.startswith("failed"):
+                    flush(False, status)
+                    self._write_last_good(writer, status)
+                else:
+                    flush(last_snapshot[0] < self.t, status)
                 writer.finish(status, self._timing_attrs())
         summary = {"status": status, "steps": self.n_steps, "t": self.t,
                    "n_particles": self.n_particles, "particle_steps": self.particle_steps,
@@ -169,6 +213,19 @@ class Simulation:
                    "output": str(writer.path) if writer else None}
         return summary
 
+    def _write_last_good(self, writer, status):
+        """After a failure: write the last state that passed the guard as a snapshot (attr
+        ``last_good``) and as the restart state, so the user can look at it and restart."""
+        if self.last_good is None or self.last_good[0]["t"] <= writer.last_snapshot_t:
+            return
+        good_clock, good_state = self.last_good
+        failed_clock, failed_state = self.clock(), self.state()
+        self.load_state(good_clock, good_state)
+        snap = {n: b.snapshot() for n, b in self.bodies().items()}
+        self.load_state(failed_clock, failed_state)  # the object keeps the failed state
+        writer.write(good_clock["t"], good_clock["step"], snap, {}, [], self._timing_attrs(),
+                     status, restart=(good_clock, good_state), last_good=True)
+
     def _timing_attrs(self):
         out = {f"{k}_s": float(v) for k, v in self.timings.items()}
         out["steps"] = self.n_steps
@@ -176,13 +233,13 @@ class Simulation:
         return out
 
 
-def _progress(enabled, total):
+def _progress(enabled, total, start=0.0):
     if not enabled:
         return None
     from tqdm import tqdm
 
     # shown only when the run lasts more than 2 s; off when stderr is not a terminal
-    return tqdm(total=total, unit="s(sim)", delay=2.0, disable=None,
+    return tqdm(total=total, initial=start, unit="s(sim)", delay=2.0, disable=None,
                 bar_format="{l_bar}{bar}| {n:.4g}/{total:.4g} s [{elapsed}<{remaining}]")
 
 
