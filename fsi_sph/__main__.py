@@ -54,7 +54,9 @@ def _parser():
                     help="at most this many snapshot images, evenly spaced (default 12)")
 
     v = sub.add_parser("validate", help="run a validation case against its reference")
-    v.add_argument("name", help="validation name, e.g. oscillating_plate")
+    v.add_argument("name", nargs="?", help="validation name, e.g. oscillating_plate")
+    v.add_argument("--all", action="store_true",
+                   help="run every validation and write validation/REPORT.md")
     v.add_argument("--quick", action="store_true", help="only the coarse end of the ladder")
     v.add_argument("--json", dest="json_file", help="write the validation record here")
     v.add_argument("--data", default=str(REPO.parent / "shared" / "validation_data"),
@@ -150,28 +152,57 @@ def cmd_plot(args):
 
 
 def available_validations():
+    """Modules of validation/ that define ``validate()`` (helpers and benchmarks do not)."""
     return sorted(p.stem for p in VALIDATION_DIR.glob("*.py")
-                  if not p.stem.startswith(("_", "common", "report", "benchmark")))
+                  if not p.stem.startswith("_") and "\ndef validate(" in p.read_text())
+
+
+def _load_validation(name):
+    path = VALIDATION_DIR / f"{name}.py"
+    if str(VALIDATION_DIR.parent) not in sys.path:
+        sys.path.insert(0, str(VALIDATION_DIR.parent))
+    spec = importlib.util.spec_from_file_location(f"validation.{name}", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
 
 
 def cmd_validate(args):
     names = available_validations()
-    if args.name not in names:
+    if args.all == bool(args.name):
+        raise UsageError("validate: give one validation NAME or --all; available: "
+                         f"{', '.join(names) or 'none (validation/ folder not found)'}")
+    if not args.all and args.name not in names:
         raise UsageError(f"validate {args.name!r}: unknown validation; available: "
                          f"{', '.join(names) or 'none (validation/ folder not found)'}")
     _set_threads(args.threads)
-    path = VALIDATION_DIR / f"{args.name}.py"
-    if str(VALIDATION_DIR.parent) not in sys.path:
-        sys.path.insert(0, str(VALIDATION_DIR.parent))
-    spec = importlib.util.spec_from_file_location(f"validation.{args.name}", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    out = Path(args.out) if args.out else VALIDATION_DIR / "results" / args.name
-    result = mod.validate(quick=args.quick, data_dir=Path(args.data), out_dir=out)
+    data = Path(args.data)
+    if not data.is_dir():
+        log.warning("--data %s: no such folder; validations against experiments will fail",
+                    data)
+    results_root = Path(args.out) if args.out else VALIDATION_DIR / "results"
+    results, failures = {}, {}
+    for name in (names if args.all else [args.name]):
+        mod = _load_validation(name)
+        out = results_root / name if (args.all or not args.out) else Path(args.out)
+        log.info("validation %s -> %s", name, out)
+        try:
+            results[name] = mod.validate(quick=args.quick, data_dir=data, out_dir=out)
+        except Exception as e:  # one failed case must not lose the others' results
+            if not args.all:
+                raise
+            log.error("validation %s failed: %s", name, e)
+            failures[name] = f"{type(e).__name__}: {e}"
     if args.json_file:
         Path(args.json_file).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.json_file).write_text(json.dumps(result, indent=1))
+        payload = results[args.name] if not args.all else results
+        Path(args.json_file).write_text(json.dumps(payload, indent=1))
         log.info("wrote %s", args.json_file)
+    if args.all:
+        report = _load_validation("report")
+        path = report.write_report(results, failures=failures)
+        log.info("wrote %s", path)
+        return 1 if failures else 0
     return 0
 
 

@@ -1,0 +1,71 @@
+"""validation/REPORT.md: for every validation case a table and a log-log plot of error against
+wall time across resolutions, other codes' errors marked where known, and the machine.
+
+Built from the ``result.json`` that each validation writes into ``validation/results/NAME/``;
+``fsi-sph validate --all [--quick]`` runs them all and then calls :func:`write_report`.
+"""
+
+from __future__ import annotations
+
+import datetime
+import json
+from pathlib import Path
+
+from validation.common import markdown_table
+
+HERE = Path(__file__).resolve().parent
+
+
+def load_results(results_dir) -> dict:
+    """{name: result} of every ``results_dir/NAME/result.json``."""
+    out = {}
+    for p in sorted(Path(results_dir).glob("*/result.json")):
+        out[p.parent.name] = json.loads(p.read_text())
+    return out
+
+
+def write_report(results: dict, path=HERE / "REPORT.md", fig_dir=HERE / "report",
+                 failures=None) -> Path:
+    """Write the report and one PNG per case into ``fig_dir``; returns the report path."""
+    from fsi_sph.plotting import error_vs_time
+
+    path, fig_dir = Path(path), Path(fig_dir)
+    fig_dir.mkdir(parents=True, exist_ok=True)
+    lines = ["# Validation report", "",
+             f"Generated {datetime.datetime.now().isoformat(timespec='seconds')} by "
+             "`fsi-sph validate --all` (regenerate with the same command; `--quick` runs the "
+             "coarse end of each ladder). Errors are signed percentages unless the name says "
+             "otherwise; wall time is the whole run (set-up + stepping); throughput is "
+             "particle-steps per second of the stepping loop.", ""]
+    machine = next((r.get("machine") for r in results.values() if r.get("machine")), None)
+    if machine:
+        v = machine.get("versions", {})
+        lines += ["Machine: " + f"{machine.get('platform')}, {machine.get('cpus')} CPUs, "
+                  f"{machine.get('numba_threads')} numba threads; git {machine.get('git_sha')}; "
+                  + ", ".join(f"{k} {v[k]}" for k in sorted(v)), ""]
+    for name, res in results.items():
+        lines += [f"## {name}", "", f"Reference: {res['reference']}", ""]
+        if not res["records"]:
+            lines += ["(no records)", ""]
+            continue
+        lines.append(markdown_table(res))
+        keys = list(res["records"][0]["errors"])
+        fig = fig_dir / f"{name}.png"
+        error_vs_time(res["records"], keys, f"{name}: error vs wall time", fig,
+                      marks=res.get("marks"))
+        if res.get("marks"):
+            lines.append("Marked on the plot (other codes, no time known): " + "; ".join(
+                f"{lab}: " + ", ".join(f"{k} {v:g}" for k, v in vals.items())
+                for lab, vals in res["marks"].items()))
+            lines.append("")
+        lines += [f"![{name}]({fig.relative_to(path.parent).as_posix()})", ""]
+        values = res["records"][-1].get("values", {})
+        if values:
+            lines.append("Finest resolution, other measured values: " + ", ".join(
+                f"{k} = {v:.4g}" if isinstance(v, float) else f"{k} = {v}"
+                for k, v in values.items()))
+            lines.append("")
+    for name, why in (failures or {}).items():
+        lines += [f"## {name}", "", f"**Did not run to the end**: {why}", ""]
+    path.write_text("\n".join(lines))
+    return path
