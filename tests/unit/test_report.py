@@ -1,0 +1,43 @@
+"""The validation report: a table and an error-vs-wall-time plot per case, marks, failures."""
+
+from fsi_sph.__main__ import main
+from validation.common import make_record
+from validation.report import load_results, write_report
+
+
+def _result():
+    recs = [make_record(lab, dx, {"n_particles": n, "steps": 10 * n, "wall_time_s": t,
+                                  "particle_steps_per_s": 1e6},
+                        {"period_pct": e, "amplitude_pct": -e / 2}, {"note": 1.5})
+            for lab, dx, n, t, e in [("coarse", 0.004, 300, 2.0, 4.0),
+                                     ("fine", 0.002, 1200, 16.0, 1.0)]]
+    return {"case": "demo", "reference": "analytic", "records": recs,
+            "marks": {"source paper": {"period_pct": 2.36}},
+            "machine": {"platform": "test-os", "cpus": 2, "numba_threads": 2, "git_sha": "abc",
+                        "versions": {"numpy": "1"}}}
+
+
+def test_write_report(tmp_path):
+    path = write_report({"demo": _result()}, tmp_path / "REPORT.md", tmp_path / "fig",
+                        failures={"broken": "RuntimeError: no data"})
+    text = path.read_text()
+    assert "## demo" in text and "| coarse | 0.004 | 300 | 3000 | 2.0 |" in text
+    assert "+4.000" in text and "-0.500" in text
+    assert "source paper: period_pct 2.36" in text
+    assert "![demo](fig/demo.png)" in text and (tmp_path / "fig" / "demo.png").stat().st_size
+    assert "test-os" in text and "numpy 1" in text
+    assert "## broken" in text and "no data" in text
+
+
+def test_load_results(tmp_path):
+    import json
+
+    (tmp_path / "demo").mkdir()
+    (tmp_path / "demo" / "result.json").write_text(json.dumps(_result()))
+    assert list(load_results(tmp_path)) == ["demo"]
+
+
+def test_validate_usage(capsys):
+    assert main(["validate"]) == 2
+    assert main(["validate", "oscillating_plate", "--all"]) == 2
+    assert "available" in capsys.readouterr().err
