@@ -1,0 +1,1 @@
+"""Fluid-structure coupling: interface forces, sub-cycling, interface power."""
