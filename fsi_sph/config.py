@@ -91,7 +91,17 @@ class ArtificialViscosity(_Model):
 
 
 class Hourglass(_Model):
-    """Hourglass (zero-energy mode) control after Ganzenmueller (2015); 0 turns it off."""
+    """Hourglass (zero-energy mode) control; coefficient 0 turns it off.
+
+    ``ganzenmueller``: the penalty force of Ganzenmueller (2015) on the pair-wise difference
+    between F_i X_ij and x_ij; not derived from a potential, it dissipates energy.
+    ``conservative``: the exact gradient of the penalty energy
+    (c/4) sum V_i V_j W_ij |F_i X_ij - x_ij|^2 / |X_ij|^2, c = coefficient * E: conserves
+    energy and momentum (the energy probe reports it as ``hourglass``).
+    """
+
+    model: Literal["ganzenmueller", "conservative"] = Field(
+        "ganzenmueller", description="hourglass force law")
 
     coefficient: NonNegative = Field(10.0, description="penalty coefficient alpha_HG")
 

@@ -24,9 +24,10 @@ class PointDisplacement:
 
 
 class Energy:
-    """Kinetic, strain and total mechanical energy of a body (J per metre of depth)."""
+    """Kinetic, strain, hourglass-penalty (conservative model only, else 0) and total
+    mechanical energy of a body (J per metre of depth)."""
 
-    columns = ("kinetic", "strain", "total")
+    columns = ("kinetic", "strain", "hourglass", "total")
 
     def __init__(self, name, body):
         self.name = name
@@ -35,7 +36,8 @@ class Energy:
     def sample(self):
         k = self.body.kinetic_energy()
         s = self.body.strain_energy()
-        return [k, s, k + s]
+        h = self.body.hourglass_energy()
+        return [k, s, h, k + s + h]
 
 
 def make_probe(cfg, bodies):

@@ -14,16 +14,17 @@ gravity = [0.0, 0.0]
 material = {{ model = "{model}", rho0 = 1000.0, E = {E}, nu = {nu} }}
 blocks = [{{ origin = [0.0, 0.0], size = [{w}, {hgt}] }}]
 artificial_viscosity = {{ alpha = {alpha}, beta = 0.0 }}
-hourglass = {{ coefficient = {hg} }}
+hourglass = {{ model = "{hg_model}", coefficient = {hg} }}
 {extra}
 """
 
 
 def body_config(dx=0.1, w=1.0, hgt=0.5, model="stvk", E=1e6, nu=0.3, alpha=0.0, hg=0.0,
-                extra=""):
+                hg_model="ganzenmueller", extra=""):
     """A one-body config (no gravity) as text -> Config."""
     return load_config(None, text=PLATE.format(dx=dx, w=w, hgt=hgt, model=model, E=E, nu=nu,
-                                               alpha=alpha, hg=hg, extra=extra))
+                                               alpha=alpha, hg=hg, hg_model=hg_model,
+                                               extra=extra))
 
 
 @pytest.fixture

@@ -109,6 +109,14 @@ class ElasticBody:
         self.gi = np.zeros((npairs, 2))
         self.gj = np.zeros((npairs, 2))
         K.corrected_gradients(self.nbr_start, self.nbr_j, gw, self.L, self.gi, self.gj)
+        hg = self.cfg.hourglass
+        self.hg_conservative = hg.model == "conservative" and hg.coefficient > 0.0
+        if self.hg_conservative:
+            # G_a = sum_b V_b L_a grad W_ab (constant), H_a (updated every step)
+            rows = np.repeat(np.arange(b.n), np.diff(self.nbr_start))
+            self.G = np.zeros((b.n, 2))
+            np.add.at(self.G, rows, b["vol"][self.nbr_j][:, None] * self.gi)
+            self.H = np.zeros((b.n, 2, 2))
 
     # ------------------------------------------------------------------ stepping
     def stable_dt(self):
@@ -125,9 +133,17 @@ class ElasticBody:
     def _accelerations(self):
         b = self.body
         av = self.cfg.artificial_viscosity
+        c_hg = self.cfg.hourglass.coefficient
         K.accelerations(b["x"], b["v"], b["x0"], b["vol"], b["F"], b["P"], self.nbr_start,
                         self.nbr_j, self.gi, self.gj, self.w, self.rho0, self.c0, self.h,
-                        av.alpha, av.beta, self.cfg.hourglass.coefficient, self.youngs, b["a"])
+                        av.alpha, av.beta, 0.0 if self.hg_conservative else c_hg, self.youngs,
+                        b["a"])
+        if self.hg_conservative:
+            K.hourglass_moments(b["x"], b["x0"], b["vol"], b["F"], self.nbr_start, self.nbr_j,
+                                self.w, self.H)
+            K.hourglass_conservative(b["x"], b["x0"], b["vol"], b["m"], b["F"], self.H, self.G,
+                                     self.nbr_start, self.nbr_j, self.gj, self.w,
+                                     c_hg * self.youngs, b["a"])
 
     def substep(self, dt):
         """One velocity-Verlet step: kick (dt/2), drift, stress, forces, kick (dt/2).
@@ -151,6 +167,15 @@ class ElasticBody:
     def strain_energy(self):
         return float(K.strain_energy(self.body["F"], self.body["vol"], self.model, self.lam,
                                      self.mu))
+
+    def hourglass_energy(self):
+        """Penalty energy of the conservative hourglass control (0 for the other model)."""
+        if not self.hg_conservative:
+            return 0.0
+        b = self.body
+        return float(K.hourglass_energy(b["x"], b["x0"], b["vol"], b["F"], self.nbr_start,
+                                        self.nbr_j, self.w,
+                                        self.cfg.hourglass.coefficient * self.youngs))
 
     def momentum(self):
         b = self.body
