@@ -80,13 +80,17 @@ def return_map(sxx, syy, sxy, szz, alpha, kc, alpha_psi, G, K):
     dzz = szz - m
     dxy = sxy
     # --- 1. tension apex
+    clipped = False
     if alpha > 0.0:
         apex = kc / alpha
         if i1 > apex:
             i1 = apex
+            clipped = True
     else:  # von Mises / Tresca-like limit: no apex
         apex = math.inf
     f = alpha * i1 + sj2 - kc
+    if f <= 0.0 and not clipped:  # elastic: untouched
+        return sxx, syy, sxy, szz, 0.0
     scale = 1.0
     if f > 0.0:
         dlam = f / (G + 9.0 * K * alpha * alpha_psi)
