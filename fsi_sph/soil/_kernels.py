@@ -177,27 +177,21 @@ def make_ghosts(x, n, wall_side, wall_pos, radius, out_x, out_src, out_wa, out_w
 def _mirror_state(side, fric, mu_w, v0, v1, sxx, syy, sxy):
     """Velocity and stress of a mirror ghost across one wall.
 
-    Normal velocity is reversed (no penetration). Tangential velocity is kept for free slip
-    and reversed (zero at the wall) for no-slip and Coulomb walls. The ghost's shear stress is
-    ``2 tau_w - sigma_nt`` so that the pair sum carries the wall traction ``tau_w``:
-    ``tau_w = 0`` (free slip), ``sigma_nt`` (no-slip) or ``sigma_nt`` clipped to
-    ``tan(delta) max(-sigma_nn, 0)`` (Coulomb friction, angle delta, ``mu_w = tan delta``).
+    Normal velocity is reversed (no penetration). Tangential velocity is kept for free-slip
+    and Coulomb walls and reversed (zero at the wall) for no-slip walls. The ghost's shear
+    stress is ``2 tau_w - sigma_nt`` so that the pair sum carries the wall traction ``tau_w``:
+    ``tau_w = 0`` (free slip, Coulomb) or ``sigma_nt`` (no-slip). A Coulomb wall's friction is
+    applied from its contact force by :func:`coulomb_friction` (``mu_w`` unused here): the
+    soil's own stress cannot carry it in a layer only a particle or two thick, whose stress
+    the truncated SPH support leaves near zero.
     """
     if side == BOTTOM or side == TOP:
         vn = -v1
-        vt = v0 if fric == FREE_SLIP else -v0
-        snn = syy
+        vt = -v0 if fric == NO_SLIP else v0
     else:
         vn = -v0
-        vt = v1 if fric == FREE_SLIP else -v1
-        snn = sxx
-    if fric == FREE_SLIP:
-        tau = 0.0
-    elif fric == NO_SLIP:
-        tau = sxy
-    else:
-        lim = mu_w * max(-snn, 0.0)
-        tau = min(max(sxy, -lim), lim)
+        vt = -v1 if fric == NO_SLIP else v1
+    tau = sxy if fric == NO_SLIP else 0.0
     s_nt = 2.0 * tau - sxy
     if side == BOTTOM or side == TOP:
         return vt, vn, s_nt
@@ -251,6 +245,36 @@ def fill_ghosts(n, ng, src, wa, wb, wall_side, wall_fric, wall_mu, g0, g1, x, v,
 
 
 @njit(cache=True)
+def coulomb_friction(n, v, aw, wall_side, wall_fric, wall_mu, dt):
+    """Coulomb friction of the walls with ``friction = coulomb`` (tan delta = ``wall_mu``):
+    with ``a_n = aw[i, w] . n_w > 0`` the contact acceleration pushing particle ``i`` off
+    wall ``w``, the tangential velocity is reduced by ``min(tan(delta) a_n dt, |v_t|)``
+    (kinetic friction, which may stop but never reverse the sliding)."""
+    for i in range(n):
+        for w in range(wall_side.shape[0]):
+            if wall_fric[w] != COULOMB:
+                continue
+            s = wall_side[w]
+            if s == BOTTOM:
+                an = aw[i, w, 1]
+                k = 0
+            elif s == TOP:
+                an = -aw[i, w, 1]
+                k = 0
+            elif s == LEFT:
+                an = aw[i, w, 0]
+                k = 1
+            else:
+                an = -aw[i, w, 0]
+                k = 1
+            if an <= 0.0:
+                continue
+            vt = v[i, k]
+            dv = min(wall_mu[w] * an * dt, abs(vt))
+            v[i, k] = vt - dv if vt > 0.0 else vt + dv
+
+
+@njit(cache=True)
 def enforce_walls(x, v, wall_side, wall_pos, eps):
     """A particle that crossed a wall is put back ``eps`` inside it and its normal velocity
     into the wall is removed (a safety net; the ghosts normally keep particles out)."""
@@ -298,19 +322,26 @@ def artificial_stress(n, sigma, rho, eps, out_R):
 
 @njit(cache=True)
 def momentum(n, x, v, rho, m, sigma, R, nbr_start, nbr_j, h, kind, c0, av_alpha, av_beta,
-             as_n, w_dx, out_a):
+             as_n, w_dx, ghost_wall, out_a, out_aw):
     """Internal acceleration [S 4-9, 4-10] of soil particles ``i < n``:
     ``dv_i/dt = sum_j m_j (sigma_i/rho_i^2 + sigma_j/rho_j^2 - Pi_ij I
     + (R_i + R_j) f_ij^n) grad_i W_ij`` (gravity and damping added by the caller).
 
     Monaghan artificial viscosity for approaching pairs: ``mu = h v_ij.x_ij/(r^2 + 0.01 h^2)``,
     ``Pi_ij = (-alpha c0 mu + beta mu^2)/rhobar``. Artificial stress (if ``R`` is not
-    ``None``-like, i.e. ``as_n > 0``): ``f_ij = W_ij / W(dx)``; ghost rows of ``R`` are taken
-    from their source through ``R`` being zero-padded (ghost ``R`` = 0).
+    ``None``-like, i.e. ``as_n > 0``): ``f_ij = W_ij / W(dx)``; ghost rows of ``R`` are zero
+    (the artificial stress acts between soil particles only).
+
+    ``out_aw[i, w]`` receives the part of ``out_a[i]`` due to the ghosts of wall ``w``
+    (``ghost_wall[g]``, -1 for corner ghosts, which are left out): the wall's contact
+    acceleration, used by :func:`coulomb_friction`.
     """
     for i in range(n):
         a0 = 0.0
         a1 = 0.0
+        for w in range(out_aw.shape[1]):
+            out_aw[i, w, 0] = 0.0
+            out_aw[i, w, 1] = 0.0
         ri2 = rho[i] * rho[i]
         for k in range(nbr_start[i], nbr_start[i + 1]):
             j = nbr_j[k]
@@ -337,8 +368,15 @@ def momentum(n, x, v, rho, m, sigma, R, nbr_start, nbr_j, h, kind, c0, av_alpha,
                 t00 += (R[i, 0, 0] + R[j, 0, 0]) * f
                 t01 += (R[i, 0, 1] + R[j, 0, 1]) * f
                 t11 += (R[i, 1, 1] + R[j, 1, 1]) * f
-            a0 += m[j] * (t00 * g0 + t01 * g1)
-            a1 += m[j] * (t01 * g0 + t11 * g1)
+            c0_ = m[j] * (t00 * g0 + t01 * g1)
+            c1_ = m[j] * (t01 * g0 + t11 * g1)
+            a0 += c0_
+            a1 += c1_
+            if j >= n:
+                w = ghost_wall[j - n]
+                if w >= 0:
+                    out_aw[i, w, 0] += c0_
+                    out_aw[i, w, 1] += c1_
         out_a[i, 0] = a0
         out_a[i, 1] = a1
 

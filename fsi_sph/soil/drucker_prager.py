@@ -5,7 +5,8 @@ One sub-step (symplectic Euler, so that the stress-velocity wave system stays st
 1. mirror ghosts of the particles near the plane walls, neighbour list of the soil among
    ``[soil; ghosts]`` (rebuilt every sub-step: the soil flows);
 2. artificial stress ``R`` (optional) and acceleration from ``sigma^n`` [S 4-9, 4-10];
-3. kick ``v^{n+1} = v^n + dt (a + g - xi v^n)``; refresh the ghosts' velocities;
+3. kick ``v^{n+1} = v^n + dt (a + g - xi v^n)``, Coulomb wall friction from the walls'
+   contact forces; refresh the ghosts' velocities;
 4. velocity gradient and continuity from ``v^{n+1}`` [S 4-5]; Jaumann stress update and
    return mapping [S 4-42 to 4-57, 4-36 to 4-41];
 5. drift ``x^{n+1} = x^n + dt v^{n+1}`` (or the XSPH velocity [S 4-71]), ``rho`` update.
@@ -81,6 +82,7 @@ class DruckerPragerBody:
         b["x"][:] = x0
         b["rho"][:] = mat.rho0
         b["m"][:] = mat.rho0 * dx * dx
+        self.aw = np.zeros((b.n, max(len(self.walls[0]), 1), 2))
         self._alloc_work(max(16, b.n // 2))
         self._compile()
 
@@ -102,6 +104,7 @@ class DruckerPragerBody:
         self.ma = np.zeros(tot)
         self.Ra = np.zeros((tot, 2, 2))
         self.src = np.zeros(cap, np.int64)
+        self.gwall = np.full(cap, -1, np.int64)
         self.wa = np.zeros(cap, np.int64)
         self.wb = np.zeros(cap, np.int64)
         self.ng = 0
@@ -129,6 +132,7 @@ class DruckerPragerBody:
                 break
             self._alloc_work(2 * ng)
         self.ng = ng
+        self.gwall[:ng] = np.where(self.wb[:ng] < 0, self.wa[:ng], -1)
         tot = n + ng
         self.nbr_start, self.nbr_j = find_neighbors(b["x"], self.xa[:tot], radius,
                                                     exclude_self=True)
@@ -162,7 +166,8 @@ class DruckerPragerBody:
             as_n = 0.0
         K.momentum(n, self.xa[:tot], self.va[:tot], self.ra[:tot], self.ma[:tot],
                    self.sa[:tot], self.Ra[:tot], self.nbr_start, self.nbr_j, self.h,
-                   self.kernel, self.c0, av.alpha, av.beta, as_n, self.w_dx, b["a"])
+                   self.kernel, self.c0, av.alpha, av.beta, as_n, self.w_dx, self.gwall,
+                   b["a"], self.aw)
 
     def update_stress(self, dt):
         """Velocity gradient, continuity, Jaumann stress update and return mapping."""
@@ -195,6 +200,9 @@ class DruckerPragerBody:
         g = self.gravity
         K.integrate(n, b["x"], b["v"], b["v"], b["a"], b["rho"], b["drho"], g[0], g[1],
                     self.cfg.damping, dt, True)
+        side, pos, fric, mu = self.walls
+        if len(side):
+            K.coulomb_friction(n, b["v"], self.aw, side, fric, mu, dt)
         self.refresh_ghosts()
         self.update_stress(dt)
         if self.cfg.xsph is not None:
@@ -207,7 +215,6 @@ class DruckerPragerBody:
             vhat = b["v"]
         K.integrate(n, b["x"], b["v"], vhat, b["a"], b["rho"], b["drho"], g[0], g[1],
                     self.cfg.damping, dt, False)
-        side, pos, _, _ = self.walls
         if len(side):
             K.enforce_walls(b["x"], b["v"], side, pos, 1e-3 * self.dx)
 

@@ -60,8 +60,11 @@ def test_momentum_matches_dense(state):
     c0, al, be, asn = 50.0, 0.3, 0.2, 2.55
     wdx = cubic_w(DX, H)
     out = np.zeros((n, 2))
+    ng = len(s["x"]) - n
+    gwall = np.arange(ng) % 3 - 1  # walls 0, 1 and corner ghosts (-1)
+    aw = np.zeros((n, 2, 2))
     K.momentum(n, s["x"], s["v"], s["rho"], s["m"], s["sig"], s["R"], s["start"], s["nbr"], H,
-               CUBIC_SPLINE, c0, al, be, asn, wdx, out)
+               CUBIC_SPLINE, c0, al, be, asn, wdx, gwall, out, aw)
     i, j, d, r = dense_pairs(s["x"][:n], s["x"])
     gw = grad_w(d, r)
     rho, m, sig, R, v = s["rho"], s["m"], s["sig"], s["R"], s["v"]
@@ -73,8 +76,14 @@ def test_momentum_matches_dense(state):
     f = (np.array([cubic_w(rr, H) for rr in r]) / wdx) ** asn
     T = T + (R[i] + R[j]) * f[:, None, None]
     ref = np.zeros((n, 2))
-    np.add.at(ref, i, m[j, None] * np.einsum("kab,kb->ka", T, gw))
+    contrib = m[j, None] * np.einsum("kab,kb->ka", T, gw)
+    np.add.at(ref, i, contrib)
     np.testing.assert_allclose(out, ref, rtol=1e-10, atol=1e-12 * np.abs(ref).max())
+    for w in (0, 1):
+        sel = (j >= n) & (gwall[np.maximum(j - n, 0)] == w)
+        refw = np.zeros((n, 2))
+        np.add.at(refw, i[sel], contrib[sel])
+        np.testing.assert_allclose(aw[:, w], refw, rtol=1e-10, atol=1e-12 * np.abs(ref).max())
 
 
 def test_velocity_gradient_and_continuity_match_dense(state):
@@ -162,7 +171,7 @@ def test_ghosts_mirror_positions_velocity_and_stress():
     m = np.ones(n + cap)
     tan_d = math.tan(math.radians(5.0))
     for fric, vt_sign, tau in [(K.FREE_SLIP, 1, 0.0), (K.NO_SLIP, -1, 300.0),
-                               (K.COULOMB, -1, tan_d * 2e3)]:
+                               (K.COULOMB, 1, 0.0)]:
         fr = np.array([fric, K.FREE_SLIP])
         mu = np.array([tan_d, 0.0])
         K.fill_ghosts(n, ng, src, wa, wb, side, fr, mu, 0.0, -9.81, xa, v, sig, szz, rho, m)
@@ -173,3 +182,15 @@ def test_ghosts_mirror_positions_velocity_and_stress():
         assert sig[g, 1, 1] == pytest.approx(-2e3 - 2000.0 * 9.81 * 0.06)
         assert sig[g, 0, 0] == -1e3
     assert KERNELS["cubic_spline"] == CUBIC_SPLINE
+
+
+def test_coulomb_friction_stops_but_never_reverses():
+    side = np.array([K.BOTTOM, K.LEFT])
+    fric = np.array([K.COULOMB, K.COULOMB])
+    mu = np.array([0.5, 0.5])
+    v = np.array([[2.0, 0.0], [0.01, 0.0], [-1.0, 3.0]])
+    aw = np.zeros((3, 2, 2))
+    aw[:, 0, 1] = [10.0, 10.0, -5.0]  # floor pushes particles 0 and 1 up; 2 is pulled
+    aw[2, 1, 0] = 4.0  # left wall pushes particle 2 off it: friction on its v_y
+    K.coulomb_friction(3, v, aw, side, fric, mu, 0.1)
+    np.testing.assert_allclose(v, [[1.5, 0.0], [0.0, 0.0], [-1.0, 2.8]])
