@@ -43,7 +43,7 @@ def ground(profile, x):
     return np.interp(x, p[:, 0], p[:, 1])
 
 
-def slip_mass(profile, xc, yc, R, x_wall=0.0, y_floor=0.0, n_probe=800):
+def slip_mass(profile, xc, yc, R, x_wall=0.0, y_floor=0.0, n_probe=1200):
     """Horizontal extent ``(x_entry, x_exit)`` of the soil above the lower arc of the circle,
     or ``None`` if the circle cuts no soil, the wall or the floor."""
     p = np.asarray(profile, dtype=np.float64)
@@ -69,23 +69,16 @@ def slip_mass(profile, xc, yc, R, x_wall=0.0, y_floor=0.0, n_probe=800):
         return None  # the arc would pass through the back wall
     if np.any(yarc[k0:k1 + 1] < y_floor - 1e-9 * R):
         return None  # the arc dips into the rigid floor under the soil
-    # refine the two ends by bisection on ground - arc
-    def g(xx):
-        return ground(p, xx) - (yc - math.sqrt(max(R * R - (xx - xc) ** 2, 0.0)))
+    # the two ends: linear interpolation of (ground - arc) between the bracketing probes
+    d = gx - yarc
 
-    def bisect(a, b):
-        ga = g(a)
-        for _ in range(50):
-            m = 0.5 * (a + b)
-            gm = g(m)
-            if (gm > 0) == (ga > 0):
-                a, ga = m, gm
-            else:
-                b = m
-        return 0.5 * (a + b)
+    def cross(k):
+        if (d[k] > 0.0) == (d[k + 1] > 0.0):  # the run ends at the bare floor, not the arc
+            return x[k + 1] if d[k] > 0.0 else x[k]
+        return x[k] + (x[k + 1] - x[k]) * d[k] / (d[k] - d[k + 1])
 
-    xe = bisect(x[k0 - 1], x[k0])
-    xx = bisect(x[k1], x[k1 + 1])
+    xe = cross(k0 - 1)
+    xx = cross(k1)
     return xe, xx
 
 
