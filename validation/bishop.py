@@ -72,10 +72,21 @@ def slip_mass(profile, xc, yc, R, x_wall=0.0, y_floor=0.0, n_probe=1200):
     # the two ends: linear interpolation of (ground - arc) between the bracketing probes
     d = gx - yarc
 
+    def g(xq):
+        return float(ground(p, xq)) - (yc - math.sqrt(max(R * R - (xq - xc) ** 2, 0.0)))
+
     def cross(k):
         if (d[k] > 0.0) == (d[k + 1] > 0.0):  # the run ends at the bare floor, not the arc
             return x[k + 1] if d[k] > 0.0 else x[k]
-        return x[k] + (x[k + 1] - x[k]) * d[k] / (d[k] - d[k + 1])
+        a, b, ga = x[k], x[k + 1], d[k]
+        for _ in range(30):  # bisection: robust where the arc is steep
+            m = 0.5 * (a + b)
+            gm = g(m)
+            if (gm > 0.0) == (ga > 0.0):
+                a, ga = m, gm
+            else:
+                b = m
+        return 0.5 * (a + b)
 
     xe = cross(k0 - 1)
     xx = cross(k1)
