@@ -122,8 +122,10 @@ def cmd_plot(args):
 
 
 def available_validations():
+    # helper modules (common.py, soil_common.py, bishop.py, ...) define no validate()
     return sorted(p.stem for p in VALIDATION_DIR.glob("*.py")
-                  if not p.stem.startswith(("_", "common", "report", "benchmark")))
+                  if not p.stem.startswith(("_", "common", "report", "benchmark"))
+                  and "\ndef validate(" in p.read_text(encoding="utf-8"))
 
 
 def cmd_validate(args):
