@@ -183,6 +183,15 @@ class Xsph(_Model):
     epsilon: Annotated[float, Field(ge=0.0, le=1.0)] = Field(0.5, description="coefficient")
 
 
+class InitialStress(_Model):
+    """Geostatic initial stress: ``sigma_yy = -rho0 |g| (y_surface - y)``,
+    ``sigma_xx = sigma_zz = k0 sigma_yy`` (tension positive), with ``y_surface`` the top of
+    the particle column above each particle (e.g. a column held by a gate before release)."""
+
+    k0: Annotated[float, Field(gt=0.0, le=1.0)] | None = Field(
+        None, description="lateral earth pressure coefficient; default Jaky's 1 - sin(phi)")
+
+
 class SoilBody(_Model):
     """One Drucker-Prager soil body (updated-Lagrangian SPH, PHYSICS.md §6)."""
 
@@ -194,6 +203,8 @@ class SoilBody(_Model):
     artificial_stress: ArtificialStress | None = Field(
         None, description="present -> artificial stress on")
     xsph: Xsph | None = Field(None, description="present -> XSPH position update")
+    initial_stress: InitialStress | None = Field(
+        None, description="present -> start from a geostatic stress state (else from zero)")
     damping: NonNegative = Field(
         0.0, description="mass-proportional damping xi (1/s): dv/dt += -xi v (quasi-static runs)")
     cfl: Annotated[float, Field(gt=0.0, le=1.0)] = Field(

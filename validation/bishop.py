@@ -139,7 +139,7 @@ def bishop_fos(profile, xc, yc, R, cohesion, phi_deg, gamma, x_wall=0.0, y_floor
 
 
 def critical_circle(profile, cohesion, phi_deg, gamma, x_wall=0.0, y_floor=0.0,
-                    min_depth=None, n_centres=24, n_radii=16, refine=True, n_starts=6):
+                    min_depth=None, n_centres=20, n_radii=16, refine=True, n_starts=6):
     """Search the circle of least Bishop factor of safety: a grid of centres above the slope,
     radii from just cutting the surface to touching the floor, then a Nelder-Mead refinement
     from the best grid circle. ``min_depth`` (default 5 % of the slope height) excludes
@@ -164,7 +164,7 @@ def critical_circle(profile, cohesion, phi_deg, gamma, x_wall=0.0, y_floor=0.0,
     gx = np.interp(s_pts, s_along, p[:, 0])
     gy = np.interp(s_pts, s_along, p[:, 1])
     depths = np.linspace(y_floor, p[:, 1].min(), max(n_radii // 3, 2))
-    cands = []
+    cands = []  # (fos, circle) of every admissible grid circle
     for xc in xs:
         for yc in ys:
             radii = np.concatenate([np.hypot(gx - xc, gy - yc), yc - depths])

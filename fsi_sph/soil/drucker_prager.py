@@ -82,6 +82,8 @@ class DruckerPragerBody:
         b["x"][:] = x0
         b["rho"][:] = mat.rho0
         b["m"][:] = mat.rho0 * dx * dx
+        if cfg.initial_stress is not None:
+            self._geostatic(cfg.initial_stress.k0)
         self.aw = np.zeros((b.n, max(len(self.walls[0]), 1), 2))
         self._alloc_work(max(16, b.n // 2))
         self._compile()
@@ -91,6 +93,32 @@ class DruckerPragerBody:
         """Set c (Pa), phi, psi (radians): e.g. reduced strengths for strength reduction."""
         self.cohesion, self.phi, self.psi = cohesion, phi, min(psi, phi)
         self.alpha, self.kc, self.alpha_psi = K.dp_parameters(phi, cohesion, self.psi)
+
+    def _geostatic(self, k0):
+        """Initial geostatic stress (config ``initial_stress``): vertical stress from the
+        weight of the particle column above (surface = highest particle in the same lattice
+        column + dx/2), horizontal and out-of-plane stress ``k0`` times it, returned to the
+        yield surface if outside it."""
+        b = self.body
+        if k0 is None:
+            k0 = 1.0 - math.sin(self.phi)  # Jaky
+        x = b["x"]
+        col = np.round((x[:, 0] - x[:, 0].min()) / self.dx).astype(np.int64)
+        top = np.full(col.max() + 1, -np.inf)
+        np.maximum.at(top, col, x[:, 1])
+        depth = top[col] + 0.5 * self.dx - x[:, 1]
+        sv = -self.rho0 * abs(self.gravity[1]) * depth
+        b["sigma"][:, 0, 0] = k0 * sv
+        b["sigma"][:, 1, 1] = sv
+        b["szz"][:] = k0 * sv
+        for i in range(b.n):
+            s = b["sigma"][i]
+            nx, ny, nxy, nz, _ = K.return_map(s[0, 0], s[1, 1], s[0, 1], b["szz"][i], self.alpha,
+                                              self.kc, self.alpha_psi, self.G, self.K)
+            s[0, 0], s[1, 1], s[0, 1], s[1, 0], b["szz"][i] = nx, ny, nxy, nxy, nz
+        # the density that goes with the elastic volumetric strain of that stress
+        i1 = b["sigma"][:, 0, 0] + b["sigma"][:, 1, 1] + b["szz"]
+        b["rho"][:] = self.rho0 / (1.0 + i1 / (3.0 * self.K))
 
     def _alloc_work(self, cap):
         n = self.body.n
