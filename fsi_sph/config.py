@@ -183,6 +183,13 @@ class Xsph(_Model):
     epsilon: Annotated[float, Field(ge=0.0, le=1.0)] = Field(0.5, description="coefficient")
 
 
+class StressFilter(_Model):
+    """Stress regularisation: a Shepard filter of the stress every ``every`` sub-steps
+    (Nguyen et al. 2017, for granular flows)."""
+
+    every: Annotated[int, Field(ge=1)] = Field(20, description="sub-steps between filterings")
+
+
 class InitialStress(_Model):
     """Geostatic initial stress: ``sigma_yy = -rho0 |g| (y_surface - y)``,
     ``sigma_xx = sigma_zz = k0 sigma_yy`` (tension positive), with ``y_surface`` the top of
@@ -203,6 +210,8 @@ class SoilBody(_Model):
     artificial_stress: ArtificialStress | None = Field(
         None, description="present -> artificial stress on")
     xsph: Xsph | None = Field(None, description="present -> XSPH position update")
+    stress_filter: StressFilter | None = Field(
+        None, description="present -> Shepard filter of the stress every few sub-steps")
     initial_stress: InitialStress | None = Field(
         None, description="present -> start from a geostatic stress state (else from zero)")
     damping: NonNegative = Field(

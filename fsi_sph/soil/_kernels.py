@@ -458,6 +458,37 @@ def xsph(n, x, v, rho, m, nbr_start, nbr_j, h, kind, eps, out_v):
 
 
 @njit(cache=True)
+def shepard_stress(n, x, rho, m, sigma, szz, nbr_start, nbr_j, h, kind, out_sigma, out_szz):
+    """Stress regularisation by a Shepard filter (Nguyen et al. 2017, for granular flows):
+    ``out_i = (V_i W_ii sigma_i + sum_j V_j W_ij sigma_j) / (V_i W_ii + sum_j V_j W_ij)``,
+    ghosts included with their mirrored stress. A convex combination of states inside the
+    (convex) Drucker-Prager cone stays inside it, so no return mapping is needed after it."""
+    w0 = kernel_w(kind, 0.0, h)
+    for i in range(n):
+        vi = m[i] / rho[i] * w0
+        s00 = vi * sigma[i, 0, 0]
+        s01 = vi * sigma[i, 0, 1]
+        s11 = vi * sigma[i, 1, 1]
+        sz = vi * szz[i]
+        den = vi
+        for k in range(nbr_start[i], nbr_start[i + 1]):
+            j = nbr_j[k]
+            d0 = x[i, 0] - x[j, 0]
+            d1 = x[i, 1] - x[j, 1]
+            wv = m[j] / rho[j] * kernel_w(kind, math.sqrt(d0 * d0 + d1 * d1), h)
+            s00 += wv * sigma[j, 0, 0]
+            s01 += wv * sigma[j, 0, 1]
+            s11 += wv * sigma[j, 1, 1]
+            sz += wv * szz[j]
+            den += wv
+        out_sigma[i, 0, 0] = s00 / den
+        out_sigma[i, 0, 1] = s01 / den
+        out_sigma[i, 1, 0] = s01 / den
+        out_sigma[i, 1, 1] = s11 / den
+        out_szz[i] = sz / den
+
+
+@njit(cache=True)
 def stress_update(n, L, sigma, szz, eps_p, dt, G, K, alpha, kc, alpha_psi):
     """Jaumann stress rate [S 4-42 to 4-57] and return mapping, rows ``i < n``.
 

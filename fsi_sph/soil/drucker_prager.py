@@ -86,7 +86,9 @@ class DruckerPragerBody:
             self._geostatic(cfg.initial_stress.k0)
         self.aw = np.zeros((b.n, max(len(self.walls[0]), 1), 2))
         self._alloc_work(max(16, b.n // 2))
+        self.n_sub = 0
         self._compile()
+        self.n_sub = 0
 
     # ------------------------------------------------------------------ set-up
     def set_strength(self, cohesion, phi, psi=0.0):
@@ -142,6 +144,8 @@ class DruckerPragerBody:
         b = self.body
         snap = {k: v.copy() for k, v in b.arrays.items()}
         self.substep(0.0)
+        if self.cfg.stress_filter is not None:
+            self.filter_stress()
         for k, v in snap.items():
             b.arrays[k][...] = v
 
@@ -207,6 +211,16 @@ class DruckerPragerBody:
         K.stress_update(n, b["L"], b["sigma"], b["szz"], b["eps_p"], dt, self.G, self.K,
                         self.alpha, self.kc, self.alpha_psi)
 
+    def filter_stress(self):
+        """Shepard filter of the stress (config ``stress_filter``)."""
+        b = self.body
+        n = b.n
+        self.refresh_ghosts()
+        tot = n + self.ng
+        K.shepard_stress(n, self.xa[:tot], self.ra[:tot], self.ma[:tot], self.sa[:tot],
+                         self.za[:tot], self.nbr_start, self.nbr_j, self.h, self.kernel,
+                         b["sigma"], b["szz"])
+
     # ------------------------------------------------------------------ stepping
     def stable_dt(self):
         """[S 4-58]: ``dt = min(cfl h/(c + |v|max), force_factor sqrt(h/|f|max))``
@@ -233,6 +247,10 @@ class DruckerPragerBody:
             K.coulomb_friction(n, b["v"], self.aw, side, fric, mu, dt)
         self.refresh_ghosts()
         self.update_stress(dt)
+        self.n_sub += 1
+        sf = self.cfg.stress_filter
+        if sf is not None and self.n_sub % sf.every == 0:
+            self.filter_stress()
         if self.cfg.xsph is not None:
             tot = n + self.ng
             K.xsph(n, self.xa[:tot], self.va[:tot], self.ra[:tot], self.ma[:tot],

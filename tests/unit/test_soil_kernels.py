@@ -194,3 +194,24 @@ def test_coulomb_friction_stops_but_never_reverses():
     aw[2, 1, 0] = 4.0  # left wall pushes particle 2 off it: friction on its v_y
     K.coulomb_friction(3, v, aw, side, fric, mu, 0.1)
     np.testing.assert_allclose(v, [[1.5, 0.0], [0.0, 0.0], [-1.0, 2.8]])
+
+
+def test_shepard_stress_matches_dense(state):
+    s = state
+    n = s["n"]
+    szz = np.linspace(-1e4, 1e4, len(s["x"]))
+    out = np.zeros((n, 2, 2))
+    outz = np.zeros(n)
+    K.shepard_stress(n, s["x"], s["rho"], s["m"], s["sig"], szz, s["start"], s["nbr"], H,
+                     CUBIC_SPLINE, out, outz)
+    i, j, d, r = dense_pairs(s["x"][:n], s["x"])
+    vol = s["m"] / s["rho"]
+    wv = vol[j] * np.array([cubic_w(rr, H) for rr in r])
+    num = vol[:n, None, None] * cubic_w(0.0, H) * s["sig"][:n]
+    den = vol[:n] * cubic_w(0.0, H)
+    numz = den * szz[:n]
+    np.add.at(num, i, wv[:, None, None] * s["sig"][j])
+    np.add.at(numz, i, wv * szz[j])
+    np.add.at(den, i, wv)
+    np.testing.assert_allclose(out, num / den[:, None, None], rtol=1e-11, atol=1e-9)
+    np.testing.assert_allclose(outz, numz / den, rtol=1e-11, atol=1e-9)
