@@ -99,7 +99,7 @@ def strength_reduction(slope: Slope, dx: float):
         psteps += p0 + p1 + p2
         g3, g4 = u_q - u_h, u_end - u_q
         failed = g4 > FAIL_RATE * H and g4 >= NO_DECEL * g3
-        failed_disp = u_end > FAIL_DISP * H and g4 > 0.2 * FAIL_DISP * H
+        failed_disp = u_end > FAIL_DISP * H and g4 > 0.1 * FAIL_DISP * H
         rec = {"F": F, "u98_end_m": u_end, "u98_growth_q3_m": g3, "u98_growth_q4_m": g4,
                "failed": bool(failed), "failed_by_displacement": bool(failed_disp)}
         trials.append(rec)
