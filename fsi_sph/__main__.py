@@ -154,7 +154,8 @@ def cmd_plot(args):
 def available_validations():
     """Modules of validation/ that define ``validate()`` (helpers and benchmarks do not)."""
     return sorted(p.stem for p in VALIDATION_DIR.glob("*.py")
-                  if not p.stem.startswith("_") and "\ndef validate(" in p.read_text())
+                  if not p.stem.startswith("_")
+                  and "\ndef validate(" in p.read_text(encoding="utf-8"))
 
 
 def _load_validation(name):

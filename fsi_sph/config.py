@@ -51,6 +51,17 @@ class Shape(_Model):
     size: tuple[Positive, Positive] = Field(description="width and height (m), > 0")
 
 
+class Polygon(_Model):
+    """A simple polygon given by its vertices (m), in order; closed automatically."""
+
+    shape: Literal["polygon"] = Field(description="primitive kind")
+    vertices: Annotated[list[Vec2], Field(min_length=3)] = Field(
+        description="corner points [x, y] (m), at least 3, in order around the polygon")
+
+
+SoilShape = Annotated[Shape | Polygon, Field(union_mode="left_to_right")]
+
+
 class CaseSection(_Model):
     """Run control: duration, resolution, output cadence, gravity."""
 
@@ -155,6 +166,113 @@ class GuardSection(_Model):
         "kinetic + strain energy plus the work gravity can do across the domain")
 
 
+class DruckerPragerMaterial(_Model):
+    """Elastoplastic Drucker-Prager soil, plane-strain Mohr-Coulomb fit [S 4-36 to 4-41]."""
+
+    model: Literal["drucker_prager"] = Field(description="constitutive model")
+    rho0: Positive = Field(description="initial density (kg/m^3)")
+    E: Positive = Field(description="Young's modulus (Pa)")
+    nu: Annotated[float, Field(gt=-1.0, lt=0.5)] = Field(description="Poisson's ratio")
+    friction_angle_deg: Annotated[float, Field(ge=0.0, lt=90.0)] = Field(
+        description="internal friction angle phi (degrees)")
+    cohesion: NonNegative = Field(0.0, description="cohesion c (Pa)")
+    dilatancy_angle_deg: Annotated[float, Field(ge=0.0, lt=90.0)] = Field(
+        0.0, description="dilatancy angle psi (degrees), <= phi; 0 = no plastic volume change")
+
+    @model_validator(mode="after")
+    def _psi_le_phi(self):
+        if self.dilatancy_angle_deg > self.friction_angle_deg:
+            raise ValueError("dilatancy_angle_deg must not exceed friction_angle_deg")
+        if self.friction_angle_deg == 0.0 and self.cohesion == 0.0:
+            raise ValueError("a soil needs friction_angle_deg > 0 or cohesion > 0")
+        return self
+
+
+class SoilViscosity(_Model):
+    """Monaghan artificial viscosity of the soil [S 4-10]."""
+
+    alpha: NonNegative = Field(0.1, description="linear coefficient")
+    beta: NonNegative = Field(0.1, description="quadratic coefficient")
+
+
+class ArtificialStress(_Model):
+    """Artificial stress against the tensile instability (Gray, Monaghan & Swift 2001)."""
+
+    epsilon: NonNegative = Field(0.3, description="coefficient on tensile principal stresses")
+    exponent: Positive = Field(2.55, description="n in f = (W_ij / W(dx))^n")
+
+
+class Xsph(_Model):
+    """XSPH transport velocity [S 4-71]."""
+
+    epsilon: Annotated[float, Field(ge=0.0, le=1.0)] = Field(0.5, description="coefficient")
+
+
+class StressFilter(_Model):
+    """Stress regularisation: a Shepard filter of the stress every ``every`` sub-steps
+    (Nguyen et al. 2017, for granular flows)."""
+
+    every: Annotated[int, Field(ge=1)] = Field(20, description="sub-steps between filterings")
+
+
+class InitialStress(_Model):
+    """Geostatic initial stress: ``sigma_yy = -rho0 |g| (y_surface - y)``,
+    ``sigma_xx = sigma_zz = k0 sigma_yy`` (tension positive), with ``y_surface`` the top of
+    the particle column above each particle (e.g. a column held by a gate before release)."""
+
+    k0: Annotated[float, Field(gt=0.0, le=1.0)] | None = Field(
+        None, description="lateral earth pressure coefficient; default Jaky's 1 - sin(phi)")
+
+
+class SoilBody(_Model):
+    """One Drucker-Prager soil body (updated-Lagrangian SPH, PHYSICS.md §6)."""
+
+    material: DruckerPragerMaterial
+    blocks: Annotated[list[SoilShape], Field(min_length=1)] = Field(
+        description="rectangles {origin, size} or polygons {shape = \"polygon\", vertices} "
+        "filled with particles")
+    artificial_viscosity: SoilViscosity = SoilViscosity()
+    artificial_stress: ArtificialStress | None = Field(
+        None, description="present -> artificial stress on")
+    xsph: Xsph | None = Field(None, description="present -> XSPH position update")
+    stress_filter: StressFilter | None = Field(
+        None, description="present -> Shepard filter of the stress every few sub-steps")
+    initial_stress: InitialStress | None = Field(
+        None, description="present -> start from a geostatic stress state (else from zero)")
+    damping: NonNegative = Field(
+        0.0, description="mass-proportional damping xi (1/s): dv/dt += -xi v (quasi-static runs)")
+    cfl: Annotated[float, Field(gt=0.0, le=1.0)] = Field(
+        0.4, description="dt <= cfl h/(c + |v|max) [S 4-58]")
+    force_factor: Annotated[float, Field(gt=0.0, le=1.0)] = Field(
+        0.25, description="dt <= force_factor sqrt(h/|a|max) [S 4-58]")
+
+
+class Wall(_Model):
+    """A rigid plane wall bounding the soil, modelled by mirror ghost particles."""
+
+    side: Literal["bottom", "left", "right", "top"] = Field(
+        description="which side of the soil the wall is on (bottom: floor y = position)")
+    position: float = Field(description="x (left/right) or y (bottom/top) of the wall (m)")
+    friction: Literal["free_slip", "no_slip", "coulomb"] = Field(
+        "no_slip", description="tangential condition; coulomb limits the wall shear stress to "
+        "tan(friction_angle_deg) times the normal pressure")
+    friction_angle_deg: Annotated[float, Field(ge=0.0, lt=90.0)] | None = Field(
+        None, description="wall friction angle delta (degrees), for friction = coulomb")
+
+    @model_validator(mode="after")
+    def _angle(self):
+        if (self.friction == "coulomb") != (self.friction_angle_deg is not None):
+            raise ValueError("friction_angle_deg is required with friction = \"coulomb\" and "
+                             "allowed only then")
+        return self
+
+
+class Boundary(_Model):
+    """Rigid walls of the scene (used by the soil bodies)."""
+
+    walls: Annotated[list[Wall], Field(min_length=1)] = Field(description="plane walls")
+
+
 class Probe(_Model):
     """A time series recorded during the run."""
 
@@ -179,13 +297,18 @@ class Config(_Model):
     sph: SphSection = SphSection()
     guard: GuardSection = GuardSection()
     solid: dict[Name, SolidBody] = Field({}, description="TLSPH elastic bodies by name")
+    soil: dict[Name, SoilBody] = Field({}, description="Drucker-Prager soil bodies by name")
+    boundary: Boundary | None = Field(None, description="rigid plane walls")
     probes: list[Probe] = []
 
     @model_validator(mode="after")
     def _cross_references(self):
-        bodies = set(self.solid)
+        bodies = set(self.solid) | set(self.soil)
         if not bodies:
-            raise ValueError("the scene has no body: add a [solid.NAME] table")
+            raise ValueError("the scene has no body: add a [solid.NAME] or [soil.NAME] table")
+        both = set(self.solid) & set(self.soil)
+        if both:
+            raise ValueError(f"body name(s) used for both a solid and a soil: {sorted(both)}")
         seen = set()
         for k, p in enumerate(self.probes):
             if p.body not in bodies:
@@ -201,6 +324,10 @@ class Config(_Model):
         mods = []
         for name in self.solid:
             mods.append(f"tlsph_elastic_solid:{name}")
+        for name in self.soil:
+            mods.append(f"drucker_prager_soil:{name}")
+        if self.boundary is not None:
+            mods.append(f"plane_walls:{len(self.boundary.walls)}")
         return mods
 
     def to_json(self) -> str:
@@ -347,7 +474,8 @@ def _inner_model(annotation: Any) -> Any:
 def _format_errors(err: ValidationError, label: str, data: dict) -> str:
     lines = []
     for e in err.errors():
-        loc = tuple(p for p in e["loc"] if p not in ("cantilever_mode", "uniform"))
+        loc = tuple(p for p in e["loc"] if p not in ("cantilever_mode", "uniform", "Shape",
+                                                      "Polygon"))
         path = ".".join(str(p) if not isinstance(p, int) else f"[{p}]" for p in loc)
         path = path.replace(".[", "[")
         msg = e["msg"]

@@ -35,8 +35,8 @@ class Energy:
 
     def sample(self):
         k = self.body.kinetic_energy()
-        s = self.body.strain_energy()
-        h = self.body.hourglass_energy()
+        s = self.body.strain_energy() if hasattr(self.body, "strain_energy") else 0.0
+        h = self.body.hourglass_energy() if hasattr(self.body, "hourglass_energy") else 0.0
         return [k, s, h, k + s + h]
 
 

@@ -16,6 +16,7 @@ from pathlib import Path
 from fsi_sph.config import Config
 from fsi_sph.guard import Guard, SimulationError
 from fsi_sph.probes import make_probe
+from fsi_sph.soil.drucker_prager import DruckerPragerBody
 from fsi_sph.solid.tlsph import ElasticBody
 
 log = logging.getLogger(__name__)
@@ -30,6 +31,10 @@ class Simulation:
         c = cfg.case
         self.structures = {name: ElasticBody(name, sec, c.dx, cfg.sph, c.gravity)
                            for name, sec in cfg.solid.items()}
+        walls = cfg.boundary.walls if cfg.boundary is not None else ()
+        for name, sec in cfg.soil.items():  # [soil.NAME] present -> a Drucker-Prager body
+            self.structures[name] = DruckerPragerBody(name, sec, c.dx, cfg.sph, c.gravity,
+                                                      walls)
         self.probes = [make_probe(p, self.structures) for p in cfg.probes]
         self.guard = Guard(cfg.guard, self.bodies(), c.gravity)
         self.t = 0.0
@@ -64,15 +69,16 @@ class Simulation:
             raise SimulationError(f"time step {dt:.3g} s at t = {self.t:.6g} s, step "
                                   f"{self.n_steps}: no stable step is possible")
         # 2. structures, each sub-cycled to its own stability limit
-        t0 = time.perf_counter()
+        #    (TLSPH solids and Drucker-Prager soils alike; timed per body kind)
         n_sub = {}
         for name, body in self.structures.items():
+            t0 = time.perf_counter()
             n = max(1, math.ceil(dt / body.stable_dt() - 1e-12))
             for _ in range(n):
                 body.substep(dt / n)
             n_sub[name] = n
             self.particle_steps += n * body.body.n
-        self.timings["solid"] += time.perf_counter() - t0
+            self.timings[body.body.kind] += time.perf_counter() - t0
         self.t += dt
         self.n_steps += 1
         return dt, n_sub

@@ -1,0 +1,1 @@
+"""Drucker-Prager soil (PHYSICS.md §6)."""

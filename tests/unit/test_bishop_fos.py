@@ -1,0 +1,45 @@
+"""Bishop's simplified method (validation/bishop.py) on cases checked by hand."""
+
+import math
+import sys
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+from validation.bishop import bishop_fos, critical_circle  # noqa: E402
+
+GAMMA = 20.0e3
+C = 20.0e3
+H = 10.0
+# vertical cut of height H, soil on the left of x = 50, floor far below the toe
+CUT = [(0.0, H), (50.0, H), (50.0 + 1e-9, 0.0), (80.0, 0.0)]  # rigid floor at the toe level
+
+
+def test_quarter_circle_by_hand():
+    """phi = 0, centre at the crest edge (50, H), R = H through the toe: the slip mass is a
+    quarter disc, driving moment gamma H^3/3, resisting c (pi H/2) H, so
+    F = 3 pi c/(2 gamma H)."""
+    F = bishop_fos(CUT, 50.0, H, H, C, 0.0, GAMMA, x_wall=-1e3, y_floor=-1e3, n_slices=400)
+    assert F == pytest.approx(3 * math.pi * C / (2 * GAMMA * H), rel=2e-4)
+
+
+def test_taylor_vertical_cut():
+    """Critical toe circle of a vertical cut in phi = 0 soil: H_c = 3.83 c/gamma (Taylor's
+    stability number 0.261), i.e. F = 3.83 c/(gamma H)."""
+    circ = critical_circle(CUT, C, 0.0, GAMMA, x_wall=0.0, y_floor=0.0, n_centres=16,
+                           n_radii=10)
+    assert circ.fos == pytest.approx(3.83 * C / (GAMMA * H), rel=0.005)
+    assert circ.x_exit == pytest.approx(50.0, abs=0.05)  # through the toe
+
+
+def test_bishop_not_below_fellenius_with_friction():
+    """With phi > 0 Bishop's F exceeds the ordinary (Fellenius) method's on the same circle."""
+    slope = [(0.0, 10.0), (5.0, 10.0), (15.0, 0.0), (20.0, 0.0)]
+    xc, yc, R = 14.0, 18.0, 16.0
+    F, s = bishop_fos(slope, xc, yc, R, 11e3, 20.0, 2100 * 9.81, return_slices=True)
+    cos_a = [math.sqrt(1 - v * v) for v in s["sin_a"]]
+    fell = sum(11e3 * b / ca + W * ca * math.tan(math.radians(20.0))
+               for b, W, ca in zip(s["b"], s["W"], cos_a)) / sum(W * sa for W, sa in
+                                                                  zip(s["W"], s["sin_a"]))
+    assert F > fell > 0.5

@@ -1,0 +1,124 @@
+"""Column collapse of aluminium bars (Bui et al. 2008): run-out and failure line.
+
+Reference: the experiment of Bui, Fukagawa, Sako & Ohno (2008, Int. J. Numer. Anal. Meth.
+Geomech. 32:1537-1570): a 0.2 m x 0.1 m column of aluminium bars (rho 2040, phi 19.8 deg, c 0)
+released on one side. Acceptance (project issue): final run-out from the back wall between
+0.30 and 0.40 m, and the failure line drawn from the plastic-strain field within 5 deg of the
+Rankine active angle 45 deg + phi/2 = 54.9 deg from the horizontal.
+
+Measurements:
+* ``runout_m``: :func:`soil_common.deposit_toe` of the final particle positions.
+* failure line: in the *initial* configuration each row of particles (height y0) is scanned
+  from the released face towards the wall; the failure line passes where the final
+  accumulated plastic strain first drops below ``EPS_LINE`` (the undisturbed wedge behind it
+  stays nearly elastic). A least-squares line x0(y0) through these points over the middle
+  80 % of the height gives the angle ``atan(1/|dx0/dy0|)`` from the horizontal. The error is
+  that of the final field; the line of the plastic strain at t = 0.1 s (the first wedge) is
+  recorded as a value beside it.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+
+import numpy as np
+
+from validation.soil_common import advance, build, deposit_toe, profile_plot, record
+
+log = logging.getLogger(__name__)
+
+CASE = "column_collapse"
+PHI_DEG = 19.8
+EPS_LINE = 0.05  # plastic strain that separates the sliding wedge from the undisturbed one
+RUNOUT_RANGE = (0.30, 0.40)
+T_EARLY = 0.1  # s: the early failure line (first wedge) is also recorded, as a value
+
+
+def failure_line(x0, eps_p, dx, height=0.1, eps_line=EPS_LINE):
+    """Points (x0, y0) of the failure line and the fitted angle (deg from horizontal)."""
+    rows = np.round(x0[:, 1] / dx).astype(int)
+    pts = []
+    for r in np.unique(rows):
+        sel = rows == r
+        y0 = float(x0[sel, 1].mean())
+        if not 0.1 * height < y0 < 0.9 * height:
+            continue
+        xs = x0[sel, 0]
+        e = eps_p[sel]
+        order = np.argsort(xs)[::-1]  # from the released face towards the wall
+        xs, e = xs[order], e[order]
+        below = np.flatnonzero(e < eps_line)
+        if len(below) == 0:
+            continue
+        # first particle (from the face) of a run of 3 below the threshold
+        k = next((b for b in below if np.all(e[b:b + 3] < eps_line)), below[0])
+        pts.append((float(xs[k]), y0))
+    pts = np.array(pts)
+    if len(pts) < 3:
+        return pts, float("nan")
+    slope = np.polyfit(pts[:, 1], pts[:, 0], 1)[0]  # dx0/dy0
+    return pts, math.degrees(math.atan2(1.0, abs(slope)))
+
+
+def run_one(dx, t_end, out_dir):
+    sim = build(CASE, dx)
+    body = sim.structures["bars"]
+    early = {}
+
+    def grab(s):  # the plastic-strain field of the first sliding wedge, for information
+        if "eps_p" not in early and s.t >= T_EARLY:
+            early["eps_p"] = body.body["eps_p"].copy()
+
+    wall, psteps = advance(sim, t_end, on_step=grab)
+    b = body.body
+    _, angle_early = failure_line(b["x0"], early["eps_p"], dx)
+    runout = deposit_toe(b["x"], dx)
+    pts, angle = failure_line(b["x0"], b["eps_p"], dx)
+    target = 45.0 + PHI_DEG / 2.0
+    ke = body.kinetic_energy()
+    log.info("dx %.4g: run-out %.4f m, failure angle %.2f deg (at %.2g s: %.2f; target %.2f), "
+             "KE end %.3g J/m, %d steps in %.1f s", dx, runout, angle, T_EARLY, angle_early,
+             target, ke, sim.n_steps, wall)
+    # plot: final deposit coloured by plastic strain, and the initial configuration
+    x_line = None
+    if len(pts) >= 3:
+        c = np.polyfit(pts[:, 1], pts[:, 0], 1)
+        yy = np.array([0.0, 0.1])
+        x_line = np.column_stack([np.polyval(c, yy), yy])
+    x_r = np.array([[0.2, 0.0], [0.2 - 0.1 / math.tan(math.radians(target)), 0.1]])
+    extra = [("45 + phi/2 from the toe", x_r)]
+    if x_line is not None:
+        extra.append((f"fitted failure line ({angle:.1f} deg)", x_line))
+    profile_plot(out_dir / f"column_collapse_dx{dx:g}.png",
+                 f"Column collapse (Bui et al. 2008), dx = {dx:g} m: run-out {runout:.3f} m",
+                 [("final deposit, accumulated plastic strain (clipped at 1)", b["x"],
+                   np.minimum(b["eps_p"], 1.0), "eps_p"),
+                  ("initial configuration coloured by final plastic strain (clipped at 0.2)",
+                   b["x0"], np.minimum(b["eps_p"], 0.2), "eps_p")],
+                 xlim=(0.0, max(0.45, runout + 0.02)), ylim=(-0.005, 0.11), extra=extra)
+    return record(f"dx={dx:g}", dx, b.n, sim.n_steps, wall, psteps,
+                  {"failure_angle_deg": abs(angle - target),
+                   "runout_outside_range_m": max(0.0, RUNOUT_RANGE[0] - runout,
+                                                 runout - RUNOUT_RANGE[1])},
+                  {"runout_m": runout, "failure_angle_deg": angle,
+                   "failure_angle_at_0.1s_deg": angle_early,
+                   "target_angle_deg": target, "final_kinetic_energy": ke,
+                   "t_end": t_end})
+
+
+def validate(quick=False, data_dir=None, out_dir=None):
+    from pathlib import Path
+
+    out_dir = Path(out_dir or "validation/results/column_collapse")
+    out_dir.mkdir(parents=True, exist_ok=True)
+    ladder = [0.005] if quick else [0.005, 0.0025]
+    t_end = 0.8  # the deposit is at rest by 0.6 s (kinetic energy recorded)
+    recs = [run_one(dx, t_end, out_dir) for dx in ladder]
+    result = {"case": CASE,
+              "reference": "Bui et al. 2008 aluminium-bar column: run-out 0.30-0.40 m; failure "
+                           "line at 45 + phi/2 = 54.9 deg",
+              "records": recs}
+    (out_dir / "column_collapse.json").write_text(json.dumps(result, indent=1))
+    return result
