@@ -162,10 +162,14 @@ def _load_validation(name):
     path = VALIDATION_DIR / f"{name}.py"
     if str(VALIDATION_DIR.parent) not in sys.path:
         sys.path.insert(0, str(VALIDATION_DIR.parent))
-    spec = importlib.util.spec_from_file_location(f"validation.{name}", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    try:  # the package import, so that `validation.X` modules share one identity
+        return importlib.import_module(f"validation.{name}")
+    except ImportError:
+        spec = importlib.util.spec_from_file_location(f"validation.{name}", path)
+        mod = importlib.util.module_from_spec(spec)
+        sys.modules[spec.name] = mod  # dataclasses and pickling look the module up
+        spec.loader.exec_module(mod)
+        return mod
 
 
 def cmd_validate(args):

@@ -64,14 +64,14 @@ def make_record(label, dx, summary, errors, values=None) -> dict:
 def markdown_table(result: dict) -> str:
     """One row per record: resolution, particles, steps, wall time, throughput, errors."""
     recs = result["records"]
-    ekeys = list(recs[0]["errors"]) if recs else []
+    ekeys = list(dict.fromkeys(k for r in recs for k in r["errors"]))
     head = ["label", "dx (m)", "particles", "steps", "wall time (s)", "particle-steps/s",
             *[f"{k}" for k in ekeys]]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in recs:
         row = [r["label"], f"{r['dx']:g}", str(r["n_particles"]), str(r["steps"]),
                f"{r['wall_time_s']:.1f}", f"{r['particle_steps_per_s']:.3g}",
-               *[f"{r['errors'][k]:+.3f}" for k in ekeys]]
+               *[f"{r['errors'][k]:+.3f}" if k in r["errors"] else "" for k in ekeys]]
         lines.append("| " + " | ".join(row) + " |")
     return "\n".join(lines) + "\n"
 

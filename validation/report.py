@@ -48,6 +48,11 @@ def write_report(results: dict, path=HERE / "REPORT.md", fig_dir=HERE / "report"
         if not res["records"]:
             lines += ["(no records)", ""]
             continue
+        if "failed_rows" in res.get("values", {}):  # the stability suite: a status table
+            from validation.stability import status_table
+
+            lines += [status_table(res), f"failed_rows = {res['values']['failed_rows']}", ""]
+            continue
         lines.append(markdown_table(res))
         keys = list(res["records"][0]["errors"])
         fig = fig_dir / f"{name}.png"
