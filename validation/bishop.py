@@ -184,7 +184,7 @@ def critical_circle(profile, cohesion, phi_deg, gamma, x_wall=0.0, y_floor=0.0,
             return fos(xc, yc, R) if R > 0 else math.inf
 
         # multi-start: the objective has walls (inadmissible circles) and several valleys
-        for f0, z0 in cands[:n_starts]:
+        for _, z0 in cands[:n_starts]:
             res = minimize(obj, np.array(z0) / scale, method="Nelder-Mead",
                            options=dict(xatol=1e-6, fatol=1e-8, maxiter=3000))
             if res.fun < best[0]:

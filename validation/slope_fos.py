@@ -140,7 +140,6 @@ def validate_slope(slope: Slope, quick=False, out_dir=None, label=None):
     out_dir = Path(out_dir or f"validation/results/{slope.case}")
     out_dir.mkdir(parents=True, exist_ok=True)
     from fsi_sph.config import load_config
-
     from validation.soil_common import CASES
 
     cfg = load_config(CASES / f"{slope.case}.toml")

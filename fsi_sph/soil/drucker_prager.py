@@ -18,10 +18,10 @@ import math
 
 import numpy as np
 
+from fsi_sph.geometry import fill_shapes
 from fsi_sph.neighbors import find_neighbors
 from fsi_sph.particles import Body, FieldSpec
 from fsi_sph.soil import _kernels as K
-from fsi_sph.geometry import fill_shapes
 from fsi_sph.sph.kernels import KERNELS, SUPPORT, kernel_w
 
 SIDES = {"bottom": K.BOTTOM, "left": K.LEFT, "right": K.RIGHT, "top": K.TOP}
