@@ -139,7 +139,7 @@ def bishop_fos(profile, xc, yc, R, cohesion, phi_deg, gamma, x_wall=0.0, y_floor
 
 
 def critical_circle(profile, cohesion, phi_deg, gamma, x_wall=0.0, y_floor=0.0,
-                    min_depth=None, n_centres=20, n_radii=16, refine=True, n_starts=6):
+                    min_depth=None, n_centres=14, n_radii=12, refine=True, n_starts=4):
     """Search the circle of least Bishop factor of safety: a grid of centres above the slope,
     radii from just cutting the surface to touching the floor, then a Nelder-Mead refinement
     from the best grid circle. ``min_depth`` (default 5 % of the slope height) excludes
