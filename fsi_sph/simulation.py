@@ -1,8 +1,9 @@
 """Simulation: builds the bodies a scene declares and advances them.
 
 :meth:`Simulation.step` is the one place where the order of operations of a time step is
-written (DESIGN.md §4). Today's scenes hold TLSPH solids only; the fluid, the coupling and
-the soil slot into ``step`` in the places marked there.
+written (DESIGN.md §4). Today's scenes hold TLSPH solids (``[solid.NAME]``) and
+Drucker-Prager soils (``[soil.NAME]``, bounded by the plane walls of ``[boundary]``); the fluid
+and the coupling slot into ``step`` in the places marked there.
 """
 
 from __future__ import annotations

@@ -139,7 +139,7 @@ def bishop_fos(profile, xc, yc, R, cohesion, phi_deg, gamma, x_wall=0.0, y_floor
 
 
 def critical_circle(profile, cohesion, phi_deg, gamma, x_wall=0.0, y_floor=0.0,
-                    min_depth=None, n_centres=20, n_radii=16, refine=True, n_starts=6):
+                    min_depth=None, n_centres=14, n_radii=12, refine=True, n_starts=4):
     """Search the circle of least Bishop factor of safety: a grid of centres above the slope,
     radii from just cutting the surface to touching the floor, then a Nelder-Mead refinement
     from the best grid circle. ``min_depth`` (default 5 % of the slope height) excludes
@@ -184,7 +184,7 @@ def critical_circle(profile, cohesion, phi_deg, gamma, x_wall=0.0, y_floor=0.0,
             return fos(xc, yc, R) if R > 0 else math.inf
 
         # multi-start: the objective has walls (inadmissible circles) and several valleys
-        for f0, z0 in cands[:n_starts]:
+        for _, z0 in cands[:n_starts]:
             res = minimize(obj, np.array(z0) / scale, method="Nelder-Mead",
                            options=dict(xatol=1e-6, fatol=1e-8, maxiter=3000))
             if res.fun < best[0]:

@@ -40,6 +40,6 @@ def test_bishop_not_below_fellenius_with_friction():
     F, s = bishop_fos(slope, xc, yc, R, 11e3, 20.0, 2100 * 9.81, return_slices=True)
     cos_a = [math.sqrt(1 - v * v) for v in s["sin_a"]]
     fell = sum(11e3 * b / ca + W * ca * math.tan(math.radians(20.0))
-               for b, W, ca in zip(s["b"], s["W"], cos_a)) / sum(W * sa for W, sa in
-                                                                  zip(s["W"], s["sin_a"]))
+               for b, W, ca in zip(s["b"], s["W"], cos_a, strict=True)) / sum(W * sa for W, sa in
+                                                                  zip(s["W"], s["sin_a"], strict=True))
     assert F > fell > 0.5
