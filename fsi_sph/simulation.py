@@ -1,8 +1,8 @@
 """Simulation: builds the bodies a scene declares and advances them.
 
 :meth:`Simulation.step` is the one place where the order of operations of a time step is
-written (DESIGN.md §4). Today's scenes hold TLSPH solids only; the fluid, the coupling and
-the soil slot into ``step`` in the places marked there.
+written (DESIGN.md §4). A scene holds an ISPH fluid (with its walls), TLSPH solids, or
+both (uncoupled for now); the coupling and the soil slot into ``step`` where marked.
 """
 
 from __future__ import annotations
@@ -33,9 +33,17 @@ class Simulation:
         self.cfg = cfg
         t0 = time.perf_counter()
         c = cfg.case
+        self.fluid = None
+        if cfg.fluid is not None:  # imported only when a scene has a fluid
+            from fsi_sph.fluid.isph import IncompressibleFluid
+
+            self.fluid = IncompressibleFluid(cfg.fluid, cfg.walls, c.dx, cfg.sph, c.gravity)
         self.structures = {name: ElasticBody(name, sec, c.dx, cfg.sph, c.gravity)
                            for name, sec in cfg.solid.items()}
-        self.probes = [make_probe(p, self.structures) for p in cfg.probes]
+        bodies = dict(self.structures)
+        if self.fluid is not None:
+            bodies["fluid"] = self.fluid
+        self.probes = [make_probe(p, bodies) for p in cfg.probes]
         self.t = 0.0
         self.n_steps = 0
         self.particle_steps = 0
@@ -48,14 +56,47 @@ class Simulation:
 
     @property
     def n_particles(self) -> int:
-        return sum(b.body.n for b in self.structures.values())
+        n = sum(b.body.n for b in self.structures.values())
+        return n + (self.fluid.n if self.fluid is not None else 0)
+
+    @property
+    def step_columns(self):
+        """Columns of the per-step table of the output (``/steps``)."""
+        cols = ("t", "dt", "n_sub")
+        if self.fluid is not None:
+            cols += ("ppe_iterations", "ppe_residual", "ppe_assemble_s", "ppe_setup_s",
+                     "ppe_solve_s", "ppe_rebuilt")
+        return cols
+
+    def _timed(self, phase, fn, *args):
+        t0 = time.perf_counter()
+        out = fn(*args)
+        self.timings[phase] += time.perf_counter() - t0
+        return out
 
     # ------------------------------------------------------------------ the time step
     def step(self, dt_max=math.inf):
         """Advance every body by one macro step; returns (dt, {body: n_sub})."""
         # 1. time step: the fluid's when there is a fluid; else the stiffest structure's
-        dt = min(dt_max, min(b.stable_dt() for b in self.structures.values()))
-        # 2. structures, each sub-cycled to its own stability limit
+        fluid = self.fluid
+        if fluid is not None:
+            dt = min(dt_max, fluid.stable_dt())
+        else:
+            dt = min(dt_max, min(b.stable_dt() for b in self.structures.values()))
+        # 2. fluid (PHYSICS.md §2-3): one projection step
+        if fluid is not None:
+            self._timed("neighbours", fluid.update_neighbors)
+            self._timed("free_surface", fluid.detect_free_surface)
+            if fluid.shifting is not None:
+                self._timed("shift", fluid.shift, dt)
+            self._timed("predict", fluid.predict, dt)
+            stats = self._timed("ppe", fluid.solve_pressure, dt)
+            self._timed("correct", fluid.correct, dt)
+            self.timings["ppe_assemble"] += stats.assemble_time
+            self.timings["ppe_setup"] += stats.setup_time
+            self.timings["ppe_solve"] += stats.solve_time
+            self.particle_steps += fluid.n
+        # 3. structures, each sub-cycled to its own stability limit
         t0 = time.perf_counter()
         n_sub = {}
         for name, body in self.structures.items():
@@ -73,7 +114,10 @@ class Simulation:
     def check(self):
         """Raise :class:`SimulationError` naming time, step, body, particle and quantity if a
         position or velocity is NaN or infinite."""
-        for name, body in self.structures.items():
+        bodies = dict(self.structures)
+        if self.fluid is not None:
+            bodies["fluid"] = self.fluid
+        for name, body in bodies.items():
             for q in ("x", "v"):
                 arr = body.body[q]
                 bad = ~np.isfinite(arr).all(axis=1)
@@ -95,7 +139,12 @@ class Simulation:
         writer = None
         if out_dir is not None:
             static = {n: b.static() for n, b in self.structures.items()}
-            writer = RunWriter(Path(out_dir) / "run.h5", self.cfg.to_json(), case_file, static)
+            if self.fluid is not None:
+                static["fluid"] = self.fluid.static()
+                if self.fluid.walls is not None:
+                    static["walls"] = self.fluid.walls.static()
+            writer = RunWriter(Path(out_dir) / "run.h5", self.cfg.to_json(), case_file, static,
+                               step_columns=self.step_columns)
         rows = {p.name: (p.columns, []) for p in self.probes}
         step_rows = []
         next_out = 0.0
@@ -113,7 +162,7 @@ class Simulation:
             if snapshot:
                 last_snapshot[0] = self.t
             if writer is not None:
-                snap = {n: b.snapshot() for n, b in self.structures.items()} if snapshot else None
+                snap = self._snapshot() if snapshot else None
                 writer.write(self.t, self.n_steps, snap, rows, step_rows, self._timing_attrs(),
                              status)
             for _, r in rows.values():
@@ -134,7 +183,12 @@ class Simulation:
                     status = f"stopped at max_steps = {max_steps}"
                     break
                 dt, n_sub = self.step(dt_max=c.t_end - self.t)
-                step_rows.append([self.t, dt, max(n_sub.values())])
+                row = [self.t, dt, max(n_sub.values(), default=0)]
+                if self.fluid is not None:
+                    st = self.fluid.last_stats
+                    row += [st.iterations, st.residual, st.assemble_time, st.setup_time,
+                            st.solve_time, float(st.rebuilt)]
+                step_rows.append(row)
                 if bar is not None:
                     bar.update(dt)
                 if self.t >= next_probe - eps:
@@ -168,6 +222,14 @@ class Simulation:
                    "particle_steps_per_s": self.particle_steps / max(self.timings["loop"], 1e-12),
                    "output": str(writer.path) if writer else None}
         return summary
+
+    def _snapshot(self):
+        snap = {n: b.snapshot() for n, b in self.structures.items()}
+        if self.fluid is not None:
+            snap["fluid"] = self.fluid.snapshot()
+            if self.fluid.walls is not None:
+                snap["walls"] = self.fluid.wall_snapshot()
+        return snap
 
     def _timing_attrs(self):
         out = {f"{k}_s": float(v) for k, v in self.timings.items()}
