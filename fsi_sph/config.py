@@ -367,6 +367,17 @@ class WallsSection(_Model):
         return self
 
 
+class CouplingSection(_Model):
+    """Fluid-structure coupling (PHYSICS.md §5): the listed solids are moving boundaries of
+    the fluid and receive its interface pressure force [F 46-48]."""
+
+    structures: Annotated[list[Name], Field(min_length=1)] = Field(
+        description="names of the [solid.NAME] bodies coupled to the fluid")
+    substeps: Annotated[int, Field(ge=1)] | None = Field(
+        None, description="solid sub-steps per fluid step; default ceil(dt_fluid / dt_solid) "
+        "from the two stability limits (the source uses 100)")
+
+
 class Probe(_Model):
     """A time series recorded during the run."""
 
@@ -398,6 +409,8 @@ class Config(_Model):
     solid: dict[Name, SolidBody] = Field({}, description="TLSPH elastic bodies by name")
     soil: dict[Name, SoilBody] = Field({}, description="Drucker-Prager soil bodies by name")
     boundary: Boundary | None = Field(None, description="rigid plane walls")
+    coupling: CouplingSection | None = Field(None, description="absent: bodies ignore each "
+                                             "other")
     probes: list[Probe] = []
 
     @model_validator(mode="after")
@@ -416,6 +429,19 @@ class Config(_Model):
         if self.walls is not None and self.fluid is None:
             raise ValueError("[walls] without [fluid]: walls only bound the fluid")
         fluid_kinds = ("pressure", "surge_front", "fluid_stats")
+        if self.coupling is not None:
+            if self.fluid is None:
+                raise ValueError("[coupling] needs a [fluid] table")
+            if self.fluid.pressure_gradient != "conservative":
+                raise ValueError(
+                    "[coupling] needs fluid.pressure_gradient = \"conservative\": the interface "
+                    "force is the pair form V_s V_f (p_s + p_f) grad W [F 46-47], which balances "
+                    "only against the same form on the fluid side (a difference-form gradient "
+                    "beside it pushes the fluid off the structure under a uniform pressure)")
+            for k, name in enumerate(self.coupling.structures):
+                if name not in self.solid:
+                    raise ValueError(f"coupling.structures[{k}] = {name!r} names no solid; "
+                                     f"solids are: {', '.join(sorted(self.solid)) or 'none'}")
         seen = set()
         for k, p in enumerate(self.probes):
             if p.body not in bodies:
@@ -442,6 +468,8 @@ class Config(_Model):
                 mods.append("smagorinsky")
         for name in self.solid:
             mods.append(f"tlsph_elastic_solid:{name}")
+        if self.coupling is not None:
+            mods.append("fsi_coupling:" + ",".join(self.coupling.structures))
         for name in self.soil:
             mods.append(f"drucker_prager_soil:{name}")
         if self.boundary is not None:

@@ -29,13 +29,20 @@ class Simulation:
         self.cfg = cfg
         t0 = time.perf_counter()
         c = cfg.case
+        self.structures = {name: ElasticBody(name, sec, c.dx, cfg.sph, c.gravity)
+                           for name, sec in cfg.solid.items()}
+        coupled = [self.structures[n] for n in cfg.coupling.structures] if cfg.coupling else []
         self.fluid = None
+        self.coupling = None
         if cfg.fluid is not None:  # imported only when a scene has a fluid
             from fsi_sph.fluid.isph import IncompressibleFluid
 
-            self.fluid = IncompressibleFluid(cfg.fluid, cfg.walls, c.dx, cfg.sph, c.gravity)
-        self.structures = {name: ElasticBody(name, sec, c.dx, cfg.sph, c.gravity)
-                           for name, sec in cfg.solid.items()}
+            self.fluid = IncompressibleFluid(cfg.fluid, cfg.walls, c.dx, cfg.sph, c.gravity,
+                                             coupled)
+        if cfg.coupling is not None:
+            from fsi_sph.coupling.fsi import FsiCoupling
+
+            self.coupling = FsiCoupling(cfg.coupling, self.fluid, coupled)
         walls = cfg.boundary.walls if cfg.boundary is not None else ()
         for name, sec in cfg.soil.items():  # [soil.NAME] present -> a Drucker-Prager body
             self.structures[name] = DruckerPragerBody(name, sec, c.dx, cfg.sph, c.gravity,
@@ -75,6 +82,8 @@ class Simulation:
         if self.fluid is not None:
             cols += ("ppe_iterations", "ppe_residual", "ppe_assemble_s", "ppe_setup_s",
                      "ppe_solve_s", "ppe_rebuilt")
+        if self.coupling is not None:
+            cols += ("power_on_structures", "power_on_fluid")
         return cols
 
     def _timed(self, phase, fn, *args):
@@ -88,24 +97,32 @@ class Simulation:
         """Advance every body by one macro step; returns (dt, {body: n_sub})."""
         # 1. time step: the fluid's when there is a fluid; else the stiffest structure's
         fluid = self.fluid
-        if fluid is not None:
-            limits = [fluid.stable_dt()]
+        limits = [b.stable_dt() for b in self.structures.values()]
+        if fluid is not None:  # the structures are sub-cycled inside the fluid step
+            limits.append(fluid.stable_dt())
+            dt = min(dt_max, limits[-1])
         else:
-            limits = [b.stable_dt() for b in self.structures.values()]
-        dt = min(dt_max, *limits)
+            dt = min(dt_max, *limits)
         if not all(d > 0.0 for d in limits):  # NaN or collapsed: let the guard name the culprit
             self.guard.check(self.t, self.n_steps, self.bodies())
             raise SimulationError(f"time step {dt:.3g} s at t = {self.t:.6g} s, step "
                                   f"{self.n_steps}: no stable step is possible")
-        # 2. fluid (PHYSICS.md §2-3): one projection step
+        # 2. fluid (PHYSICS.md §2-3): one projection step; coupled structures are moving
+        #    boundary particles of it (their positions, averaged velocity, acceleration)
+        coupling = self.coupling
         if fluid is not None:
+            if coupling is not None:
+                coupling.before_fluid()
             self._timed("neighbours", fluid.update_neighbors)
             self._timed("free_surface", fluid.detect_free_surface)
             if fluid.shifting is not None:
                 self._timed("shift", fluid.shift, dt)
             self._timed("predict", fluid.predict, dt)
             stats = self._timed("ppe", fluid.solve_pressure, dt)
-            self._timed("correct", fluid.correct, dt)
+            # interface forces [F 46-47] from p^{n+1}: the fluid's share now, the
+            # structures' share held over their sub-steps below
+            on_fluid = self._timed("coupling", coupling.forces) if coupling else None
+            self._timed("correct", fluid.correct, dt, on_fluid)
             self.timings["ppe_assemble"] += stats.assemble_time
             self.timings["ppe_setup"] += stats.setup_time
             self.timings["ppe_solve"] += stats.solve_time
@@ -113,7 +130,14 @@ class Simulation:
         # 3. structures, each sub-cycled to its own stability limit
         #    (TLSPH solids and Drucker-Prager soils alike; timed per body kind)
         n_sub = {}
+        if coupling is not None:  # [F 48]: sub-cycled, force held, averaged velocity back
+            t0 = time.perf_counter()
+            n_sub.update(coupling.advance(dt))
+            self.particle_steps += sum(n * self.structures[k].body.n for k, n in n_sub.items())
+            self.timings["solid"] += time.perf_counter() - t0
         for name, body in self.structures.items():
+            if name in n_sub:
+                continue
             t0 = time.perf_counter()
             n = max(1, math.ceil(dt / body.stable_dt() - 1e-12))
             for _ in range(n):
@@ -230,6 +254,8 @@ class Simulation:
                     st = self.fluid.last_stats
                     row += [st.iterations, st.residual, st.assemble_time, st.setup_time,
                             st.solve_time, float(st.rebuilt)]
+                if self.coupling is not None:
+                    row += [self.coupling.power_structure, self.coupling.power_fluid]
                 step_rows.append(row)
                 if bar is not None:
                     bar.update(dt)

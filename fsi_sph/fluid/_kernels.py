@@ -261,7 +261,7 @@ def ppe_row_lengths(alpha, f_start, w_start, nf, nw, out_len):
 
 @njit(cache=True, parallel=True)
 def ppe_fill(x, vol, alpha, source, L, f_start, f_j, w_start, w_j, nf, nw, h, kind, eta2,
-             lap_scale, diag_ref, rho, g0, g1, indptr, out_indices, out_data, out_b):
+             lap_scale, diag_ref, rho, gb, indptr, out_indices, out_data, out_b):
     """Fill the PPE straight into CSR arrays (``indptr`` from :func:`ppe_row_lengths`).
 
     Fluid row ``i`` [F 17, F 20-21]: the Morris Laplacian [F 11-12] with
@@ -282,11 +282,12 @@ def ppe_fill(x, vol, alpha, source, L, f_start, f_j, w_start, w_j, nf, nw, h, ki
     ``p_i = 0`` where ``alpha_i = 0`` (free surface) and the [F 21] blend in between.
     Dirichlet rows and rows without neighbours get the diagonal ``diag_ref`` and ``b = 0``.
 
-    Wall row ``w`` (global index ``nf + w``): Adami's extrapolation (PHYSICS.md §2) from the
-    fluid neighbours ``f``, a static wall (``a_w = 0``), scaled by ``diag_ref`` so that its
-    size matches the fluid rows::
+    Boundary row ``w`` (global index ``nf + w``; fixed walls, then moving structure
+    particles): Adami's extrapolation (PHYSICS.md §2) from the fluid neighbours ``f``,
+    ``gb[w] = g - a_w`` (``g`` for a fixed wall), scaled by ``diag_ref`` so that its size
+    matches the fluid rows::
 
-        p_w - sum_f p_f W_wf / sum_f W_wf = rho sum_f g . (x_w - x_f) W_wf / sum_f W_wf
+        p_w - sum_f p_f W_wf / sum_f W_wf = rho sum_f (g - a_w) . (x_w - x_f) W_wf / sum_f W_wf
 
     A wall particle with no fluid neighbour gets ``p_w = 0``.
     Columns are sorted within each row.
@@ -356,22 +357,25 @@ def ppe_fill(x, vol, alpha, source, L, f_start, f_j, w_start, w_j, nf, nw, h, ki
                     wt = kernel_w(kind, math.sqrt(d0 * d0 + d1 * d1), h) / sw
                 out_indices[e] = j
                 out_data[e] = -diag_ref * wt
-                rhs += rho * (g0 * d0 + g1 * d1) * wt
+                rhs += rho * (gb[w, 0] * d0 + gb[w, 1] * d1) * wt
                 e += 1
             out_b[i] = diag_ref * rhs
             _sort_row(out_indices, out_data, lo, e)
 
 
 @njit(cache=True, parallel=True)
-def pressure_gradient(x, p, vol, nbr_start, nbr_j, nf, h, kind, grad_scale, out_grad):
+def pressure_gradient(x, p, vol, nbr_start, nbr_j, nf, h, kind, grad_scale, jmax, out_grad):
     """Conservative pressure gradient [F 8, F 10]
     ``grad p_i = grad_scale sum_j V_j (p_i + p_j) grad W_ij``: the pair force
-    ``-V_i V_j (p_i + p_j) grad W_ij`` is antisymmetric, so momentum is conserved."""
+    ``-V_i V_j (p_i + p_j) grad W_ij`` is antisymmetric, so momentum is conserved.
+    Sources ``j >= jmax`` (structure particles) are left to the coupling's pair force."""
     for i in prange(nf):
         s0 = 0.0
         s1 = 0.0
         for k in range(nbr_start[i], nbr_start[i + 1]):
             j = nbr_j[k]
+            if j >= jmax:
+                continue
             d0 = x[i, 0] - x[j, 0]
             d1 = x[i, 1] - x[j, 1]
             r = math.sqrt(d0 * d0 + d1 * d1)
@@ -385,15 +389,18 @@ def pressure_gradient(x, p, vol, nbr_start, nbr_j, nf, h, kind, grad_scale, out_
 
 
 @njit(cache=True, parallel=True)
-def corrected_pressure_gradient(x, p, vol, L, nbr_start, nbr_j, nf, h, kind, out_grad):
+def corrected_pressure_gradient(x, p, vol, L, nbr_start, nbr_j, nf, h, kind, jmax, out_grad):
     """Consistent, corrected pressure gradient [F 7, F 13-14]
     ``grad p_i = sum_j V_j (p_j - p_i) L_i grad W_ij``: exact for linear ``p`` also where the
-    support is truncated (free surface), but the pair forces are not antisymmetric."""
+    support is truncated (free surface), but the pair forces are not antisymmetric.
+    Sources ``j >= jmax`` (structure particles) are left to the coupling's pair force."""
     for i in prange(nf):
         s0 = 0.0
         s1 = 0.0
         for k in range(nbr_start[i], nbr_start[i + 1]):
             j = nbr_j[k]
+            if j >= jmax:
+                continue
             d0 = x[i, 0] - x[j, 0]
             d1 = x[i, 1] - x[j, 1]
             r = math.sqrt(d0 * d0 + d1 * d1)

@@ -77,7 +77,7 @@ class IncompressibleFluid:
     shifting_fields = (FieldSpec("dr", (2,)),)
     output_fields = ("x", "v", "p", "divr", "class")
 
-    def __init__(self, cfg, walls_cfg, dx, sph, gravity):
+    def __init__(self, cfg, walls_cfg, dx, sph, gravity, structures=()):
         self.cfg = cfg
         self.dx = dx
         self.h = sph.h_over_dx * dx
@@ -91,6 +91,9 @@ class IncompressibleFluid:
         if self.walls is not None:  # fluid particles on a wall site are dropped
             near_start, _ = find_neighbors(x, self.walls.body["x"], 0.5 * dx)
             x = x[np.diff(near_start) == 0]
+        for st in structures:  # and so are those on a site of a coupled structure
+            near_start, _ = find_neighbors(x, st.body["x"], 0.5 * dx)
+            x = x[np.diff(near_start) == 0]
         self.body = b = Body("fluid", "fluid", len(x))
         b.allocate(self.fields)
         self.shifting = Shifting(cfg.shifting, self.h) if cfg.shifting is not None else None
@@ -101,16 +104,25 @@ class IncompressibleFluid:
         b["m"][:] = self.rho * dx * dx
         b["nu"][:] = self.nu0
         self.nf = b.n
-        self.nw = self.walls.body.n if self.walls is not None else 0
+        # boundary particles: the fixed walls, then the particles of the coupled structures
+        # (moving boundaries, PHYSICS.md §5); the loops see them all as "wall" rows
+        self.n_walls = self.walls.body.n if self.walls is not None else 0
+        self.structures = list(structures)  # ElasticBody objects, fixed order
+        self.ns = sum(s.body.n for s in self.structures)
+        self.nw = self.n_walls + self.ns
         n = self.nf + self.nw
-        # stacked fluid + wall arrays seen by the loops (walls after the fluid)
+        # boundary velocity u_b and body force g - a_b of the boundary rows (Adami)
+        self.v_b = np.zeros((self.nw, 2))
+        self.g_b = np.tile(self.gravity, (self.nw, 1))
+        # stacked fluid + boundary arrays seen by the loops (boundary after the fluid)
         self.x_all = np.zeros((n, 2))
         self.v_all = np.zeros((n, 2))
         self.vol_all = np.full(n, dx * dx)
         self.nu_all = np.full(n, self.nu0)
         self.p_all = np.zeros(n)
         if self.walls is not None:
-            self.x_all[self.nf:] = self.walls.body["x"]
+            self.x_all[self.nf:self.nf + self.n_walls] = self.walls.body["x"]
+        self.set_structures(np.zeros((self.ns, 2)), np.zeros((self.ns, 2)))
         self.grad_scale, self.lap_scale, self.diag_ref = lattice_scales(dx, self.h, self.kernel)
         self.ppe = PressureSolver(cfg.ppe)
         self.last_stats = PPEStats()
@@ -126,6 +138,25 @@ class IncompressibleFluid:
     @property
     def n(self):
         return self.nf
+
+    # ------------------------------------------------------------------ coupling
+    def set_structures(self, v_bar, a_bar):
+        """Moving boundary (PHYSICS.md §5): the structures' current positions, their velocity
+        averaged over the last sub-cycle ``v_bar`` and acceleration ``a_bar`` (stacked in
+        ``self.structures`` order)."""
+        if not self.ns:
+            return
+        k = self.nf + self.n_walls
+        for s in self.structures:
+            self.x_all[k:k + s.body.n] = s.body["x"]
+            k += s.body.n
+        self.v_b[self.n_walls:] = v_bar
+        self.v_all[self.nf + self.n_walls:] = v_bar
+        self.g_b[self.n_walls:] = self.gravity - a_bar
+
+    def structure_pressure(self):
+        """Pressure of the structure particles from the last solve (stacked)."""
+        return self.p_all[self.nf + self.n_walls:]
 
     # ------------------------------------------------------------------ helpers
     def _sync(self):
@@ -160,7 +191,7 @@ class IncompressibleFluid:
         r = SUPPORT * self.h
         xf = self.x_all[:self.nf]
         self.ff_start, self.ff_j = find_neighbors(xf, self.x_all, r, exclude_self=True)
-        if self.nw:
+        if self.nw:  # boundary rows (walls, structures) over fluid sources
             self.wf_start, self.wf_j = find_neighbors(self.x_all[self.nf:], xf, r)
         else:
             self.wf_start, self.wf_j = np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64)
@@ -209,14 +240,14 @@ class IncompressibleFluid:
                            self.v_star)
 
     def velocity_divergence(self, v_fluid, v_wall=(0.0, 0.0), out=None):
-        """``div u`` of the fluid rows for a fluid velocity field and a (uniform) velocity of
-        the wall particles."""
+        """``div u`` of the fluid rows for a fluid velocity field and a velocity of the
+        boundary particles (uniform, or one row per boundary particle)."""
         self.v_all[:self.nf] = v_fluid
         self.v_all[self.nf:] = v_wall
         out = np.zeros(self.nf) if out is None else out
         K.velocity_divergence(self.x_all, self.v_all, self.vol_all, self.ff_start, self.ff_j,
                               self.nf, self.h, self.kernel, self.grad_scale, out)
-        self.v_all[self.nf:] = 0.0
+        self.v_all[self.nf:] = self.v_b  # what the viscous term sees
         return out
 
     def solve_pressure(self, dt):
@@ -230,39 +261,48 @@ class IncompressibleFluid:
         # wall rows) takes back to u_w in the correction. With u*_w = u_w instead, the wall
         # flux would be counted twice, once through div u* and once through the extrapolated
         # wall pressure, and a tank at rest would not stay at rest.
-        self.velocity_divergence(self.v_star, dt * self.gravity, self.div)
+        # A moving boundary (structure particle) likewise enters with u_b + dt (g - a_b).
+        self.velocity_divergence(self.v_star, self.v_b + dt * self.g_b, self.div)
         source = -self.rho / dt * self.div
         K.correction_matrices(self.x_all, self.vol_all, self.ff_start, self.ff_j, self.h,
                               self.kernel, self.L)
         A, rhs = assemble(self.x_all, self.vol_all, b["alpha"], source, self.L, self.ff_start,
                           self.ff_j,
                           self.wf_start, self.wf_j, self.nf, self.nw, self.h, self.kernel,
-                          self.eta2, self.lap_scale, self.diag_ref, self.rho, self.gravity)
+                          self.eta2, self.lap_scale, self.diag_ref, self.rho, self.g_b)
         t1 = time.perf_counter()
         p, stats = self.ppe.solve(A, rhs, self.p_all)
         stats.assemble_time = t1 - t0
         self.p_all[:] = p
         b["p"][:] = p[:self.nf]
         if self.walls is not None:
-            self.walls.body["p"][:] = p[self.nf:]
+            self.walls.body["p"][:] = p[self.nf:self.nf + self.n_walls]
         self.last_stats = stats
         self.A, self.rhs = A, rhs
         return stats
 
-    def correct(self, dt):
+    def correct(self, dt, interface_force=None):
         """``u^{n+1} = u* - dt grad p / rho`` [F 18] with the conservative gradient [F 10];
-        ``r^{n+1} = r^n + dt (u^n + u^{n+1}) / 2`` [F 19]; ``a = (u^{n+1} - u^n) / dt``."""
+        ``r^{n+1} = r^n + dt (u^n + u^{n+1}) / 2`` [F 19]; ``a = (u^{n+1} - u^n) / dt``.
+
+        With coupled structures the pressure gradient leaves out the structure particles and
+        ``interface_force`` (N/m per fluid particle, the pair force [F 46-47] that the
+        structures receive with the opposite sign) is applied instead."""
         b = self.body
+        jmax = self.nf + self.n_walls
         if self.cfg.pressure_gradient == "conservative":
             K.pressure_gradient(self.x_all, self.p_all, self.vol_all, self.ff_start, self.ff_j,
-                                self.nf, self.h, self.kernel, self.grad_scale, self.grad_p)
+                                self.nf, self.h, self.kernel, self.grad_scale, jmax,
+                                self.grad_p)
         else:  # L from solve_pressure, same positions
             K.corrected_pressure_gradient(self.x_all, self.p_all, self.vol_all, self.L,
                                           self.ff_start, self.ff_j, self.nf, self.h, self.kernel,
-                                          self.grad_p)
+                                          jmax, self.grad_p)
         v = b["v"]
         np.multiply(self.grad_p, -dt / self.rho, out=v)
         v += self.v_star
+        if interface_force is not None:
+            v += (dt / b["m"])[:, None] * interface_force
         b["a"][:] = (v - self.v_old) / dt
         b["x"] += 0.5 * dt * (self.v_old + v)
 
@@ -338,9 +378,9 @@ def warm_up(kind):
     K.velocity_divergence(x, v, vol, start, j, n, h, kind, 1.0, div)
     ws = np.zeros(1, dtype=np.int64)
     assemble(x, vol, alpha, div, L, start, j, ws, np.zeros(0, dtype=np.int64), n, 0, h, kind,
-             0.01, 1.0, 1.0, 1.0, np.zeros(2))
-    K.pressure_gradient(x, p, vol, start, j, n, h, kind, 1.0, gp)
-    K.corrected_pressure_gradient(x, p, vol, L, start, j, n, h, kind, gp)
+             0.01, 1.0, 1.0, 1.0, np.zeros((0, 2)))
+    K.pressure_gradient(x, p, vol, start, j, n, h, kind, 1.0, n, gp)
+    K.corrected_pressure_gradient(x, p, vol, L, start, j, n, h, kind, n, gp)
     dr = np.zeros((n, 2))
     for model in (0, 1):
         K.shift_vectors(x, v, vol, start, j, n, h, kind, model, 1.0, 0.0, 0.1, cls, nrm, dr)
