@@ -376,6 +376,11 @@ class CouplingSection(_Model):
     substeps: Annotated[int, Field(ge=1)] | None = Field(
         None, description="solid sub-steps per fluid step; default ceil(dt_fluid / dt_solid) "
         "from the two stability limits (the source uses 100)")
+    structure_acceleration: Literal["implicit", "explicit"] = Field(
+        "implicit", description="how the pressure solve sees the structures' acceleration: "
+        "`implicit` solves for the fluid's share (stable for light, thin structures), "
+        "`explicit` takes the last sub-cycle's (the plain staggered scheme; unstable when the "
+        "added mass exceeds the structure's mass)")
 
 
 class Probe(_Model):

@@ -85,7 +85,19 @@ class FsiCoupling:
         self.n_sub = {}
 
     def before_fluid(self):
-        self.fluid.set_structures(self.v_bar, self.a_bar)
+        if self.cfg.structure_acceleration == "explicit":
+            self.fluid.set_structures(self.v_bar, self.a_bar)
+            return
+        # implicit: hand the solve every acceleration but the fluid's (internal + gravity;
+        # zero on clamped particles, which also get no implicit term: rho_s = inf)
+        g = self.fluid.gravity
+        a_other = np.zeros_like(self.a_bar)
+        rho_s = np.full(len(self.a_bar), np.inf)
+        for b, sl in zip(self.bodies, self.slices, strict=True):
+            free = b.body["free"]
+            a_other[sl] = np.where(free[:, None], b.body["a"] + g, 0.0)
+            rho_s[sl] = np.where(free, b.rho0, np.inf)
+        self.fluid.set_structures(self.v_bar, self.a_bar, a_other, rho_s)
 
     def forces(self):
         """Interface forces [F 46-47] from the pressures of the last solve, at the current

@@ -261,7 +261,7 @@ def ppe_row_lengths(alpha, f_start, w_start, nf, nw, out_len):
 
 @njit(cache=True, parallel=True)
 def ppe_fill(x, vol, alpha, source, L, f_start, f_j, w_start, w_j, nf, nw, h, kind, eta2,
-             lap_scale, diag_ref, rho, gb, indptr, out_indices, out_data, out_b):
+             lap_scale, diag_ref, rho, gb, implicit, indptr, out_indices, out_data, out_b):
     """Fill the PPE straight into CSR arrays (``indptr`` from :func:`ppe_row_lengths`).
 
     Fluid row ``i`` [F 17, F 20-21]: the Morris Laplacian [F 11-12] with
@@ -288,6 +288,15 @@ def ppe_fill(x, vol, alpha, source, L, f_start, f_j, w_start, w_j, nf, nw, h, ki
     matches the fluid rows::
 
         p_w - sum_f p_f W_wf / sum_f W_wf = rho sum_f (g - a_w) . (x_w - x_f) W_wf / sum_f W_wf
+
+    A structure row with ``implicit[w] = rho c / rho_s > 0`` takes its acceleration
+    implicitly, ``a_w = a~_w + f_w(p) / m_w`` with the interface pair force
+    ``f_w = -c V_w sum_f V_f (p_w + p_f) grad W_wf`` [F 46-47] (``gb[w] = g - a~_w``: every
+    acceleration but the fluid's), so the solve sees the structure's inertia (no added-mass
+    instability of the staggered scheme)::
+
+        (1 + sum_f k_wf) p_w + sum_f (k_wf - w_wf) p_f = rho (g - a~_w) . rbar_w,
+        k_wf = -implicit[w] V_f grad W_wf . rbar_w,  rbar_w = sum_f w_wf (x_w - x_f)
 
     A wall particle with no fluid neighbour gets ``p_w = 0``.
     Columns are sorted within each row.
@@ -344,21 +353,37 @@ def ppe_fill(x, vol, alpha, source, L, f_start, f_j, w_start, w_j, nf, nw, h, ki
                 d0 = x[i, 0] - x[j, 0]
                 d1 = x[i, 1] - x[j, 1]
                 sw += kernel_w(kind, math.sqrt(d0 * d0 + d1 * d1), h)
+            rb0 = 0.0
+            rb1 = 0.0
+            if implicit[w] > 0.0 and sw > 0.0:
+                for k in range(w_start[w], w_start[w + 1]):
+                    j = w_j[k]
+                    d0 = x[i, 0] - x[j, 0]
+                    d1 = x[i, 1] - x[j, 1]
+                    wt = kernel_w(kind, math.sqrt(d0 * d0 + d1 * d1), h) / sw
+                    rb0 += wt * d0
+                    rb1 += wt * d1
             out_indices[lo] = i
-            out_data[lo] = diag_ref
+            diag = 1.0
             e = lo + 1
             rhs = 0.0
             for k in range(w_start[w], w_start[w + 1]):
                 j = w_j[k]
                 d0 = x[i, 0] - x[j, 0]
                 d1 = x[i, 1] - x[j, 1]
+                r = math.sqrt(d0 * d0 + d1 * d1)
                 wt = 0.0
                 if sw > 0.0:
-                    wt = kernel_w(kind, math.sqrt(d0 * d0 + d1 * d1), h) / sw
+                    wt = kernel_w(kind, r, h) / sw
+                kwf = 0.0
+                if implicit[w] > 0.0 and r > 1e-12 * h:
+                    kwf = -implicit[w] * vol[j] * kernel_dw(kind, r, h) / r * (d0 * rb0 + d1 * rb1)
+                diag += kwf
                 out_indices[e] = j
-                out_data[e] = -diag_ref * wt
+                out_data[e] = diag_ref * (kwf - wt)
                 rhs += rho * (gb[w, 0] * d0 + gb[w, 1] * d1) * wt
                 e += 1
+            out_data[lo] = diag_ref * diag
             out_b[i] = diag_ref * rhs
             _sort_row(out_indices, out_data, lo, e)
 

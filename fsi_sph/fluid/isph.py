@@ -114,6 +114,8 @@ class IncompressibleFluid:
         # boundary velocity u_b and body force g - a_b of the boundary rows (Adami)
         self.v_b = np.zeros((self.nw, 2))
         self.g_b = np.tile(self.gravity, (self.nw, 1))
+        # rho c / rho_s on structure rows whose acceleration the PPE takes implicitly
+        self.implicit = np.zeros(self.nw)
         # stacked fluid + boundary arrays seen by the loops (boundary after the fluid)
         self.x_all = np.zeros((n, 2))
         self.v_all = np.zeros((n, 2))
@@ -140,7 +142,7 @@ class IncompressibleFluid:
         return self.nf
 
     # ------------------------------------------------------------------ coupling
-    def set_structures(self, v_bar, a_bar):
+    def set_structures(self, v_bar, a_bar, a_other=None, rho_s=None):
         """Moving boundary (PHYSICS.md §5): the structures' current positions, their velocity
         averaged over the last sub-cycle ``v_bar`` and acceleration ``a_bar`` (stacked in
         ``self.structures`` order)."""
@@ -152,7 +154,11 @@ class IncompressibleFluid:
             k += s.body.n
         self.v_b[self.n_walls:] = v_bar
         self.v_all[self.nf + self.n_walls:] = v_bar
-        self.g_b[self.n_walls:] = self.gravity - a_bar
+        if a_other is None:  # explicit: the last sub-cycle's mean acceleration
+            self.g_b[self.n_walls:] = self.gravity - a_bar
+        else:  # implicit: every acceleration but the fluid's; the fluid's is solved for
+            self.g_b[self.n_walls:] = self.gravity - a_other
+            self.implicit[self.n_walls:] = self.rho * self.grad_scale / rho_s
 
     def structure_pressure(self):
         """Pressure of the structure particles from the last solve (stacked)."""
@@ -269,7 +275,8 @@ class IncompressibleFluid:
         A, rhs = assemble(self.x_all, self.vol_all, b["alpha"], source, self.L, self.ff_start,
                           self.ff_j,
                           self.wf_start, self.wf_j, self.nf, self.nw, self.h, self.kernel,
-                          self.eta2, self.lap_scale, self.diag_ref, self.rho, self.g_b)
+                          self.eta2, self.lap_scale, self.diag_ref, self.rho, self.g_b,
+                          self.implicit)
         t1 = time.perf_counter()
         p, stats = self.ppe.solve(A, rhs, self.p_all)
         stats.assemble_time = t1 - t0

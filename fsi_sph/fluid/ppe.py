@@ -38,7 +38,7 @@ class PPEStats:
 
 
 def assemble(x, vol, alpha, source, L, f_start, f_j, w_start, w_j, nf, nw, h, kind, eta2,
-             lap_scale, diag_ref, rho, gb):
+             lap_scale, diag_ref, rho, gb, implicit=None):
     """Build the PPE as a ``scipy.sparse.csr_array`` and its right-hand side.
 
     Rows are counted first (:func:`_kernels.ppe_row_lengths`), then filled in place
@@ -54,7 +54,8 @@ def assemble(x, vol, alpha, source, L, f_start, f_j, w_start, w_j, nf, nw, h, ki
     data = np.empty(nnz, dtype=np.float64)
     b = np.empty(n, dtype=np.float64)
     K.ppe_fill(x, vol, alpha, source, L, f_start, f_j, w_start, w_j, nf, nw, h, kind, eta2,
-               lap_scale, diag_ref, rho, gb, indptr, indices, data, b)
+               lap_scale, diag_ref, rho, gb,
+               np.zeros(nw) if implicit is None else implicit, indptr, indices, data, b)
     # pyamg's C++ routines take int32 index arrays
     A = sp.csr_array((data, indices.astype(np.int32), indptr.astype(np.int32)), shape=(n, n))
     A.has_sorted_indices = True
