@@ -273,20 +273,133 @@ class Boundary(_Model):
     walls: Annotated[list[Wall], Field(min_length=1)] = Field(description="plane walls")
 
 
+
+
+# ---------------------------------------------------------------------------- fluid
+
+
+class FluidMaterial(_Model):
+    """Incompressible Newtonian fluid: constant density and kinematic viscosity."""
+
+    rho0: Positive = Field(description="density (kg/m^3)")
+    nu: NonNegative = Field(1.0e-6, description="kinematic viscosity (m^2/s)")
+
+
+class PPESection(_Model):
+    """Pressure Poisson equation [F 17, F 20]: pyamg AMG as preconditioner of a Krylov method.
+
+    The AMG hierarchy is kept across steps as long as the iteration count stays low: it is
+    rebuilt when a solve takes more than ``rebuild_growth`` times the iterations of the first
+    solve after the last rebuild (and at least 2 more), or after ``rebuild_every`` steps.
+    """
+
+    krylov: Literal["bicgstab", "gmres"] = Field(
+        "bicgstab", description="Krylov method (the matrix is not symmetric)")
+    amg: Literal["ruge_stuben", "smoothed_aggregation"] = Field(
+        "ruge_stuben", description="AMG hierarchy used as the preconditioner")
+    rtol: Annotated[float, Field(gt=0.0, lt=1.0)] = Field(
+        1.0e-6, description="relative residual ||b - A p|| / ||b|| at which the solve stops")
+    maxiter: Annotated[int, Field(ge=1)] = Field(200, description="Krylov iteration limit")
+    rebuild_growth: Annotated[float, Field(ge=1.0)] = Field(
+        1.5, description="rebuild the AMG hierarchy when iterations exceed this factor times "
+        "the iterations right after the last rebuild")
+    rebuild_every: Annotated[int, Field(ge=1)] = Field(
+        100, description="rebuild the AMG hierarchy at least every this many steps")
+
+
+class ShiftingSection(_Model):
+    """Particle shifting [F 22-33]; free- and near-surface particles shift tangentially only.
+
+    ``fickian``: dr = -A h |u| dt grad C (Lind et al. 2012, the alternative PHYSICS.md §3
+    allows); ``centroid``: dr = eps sum_b V_b r_ab W_ab [F 23-25].
+    """
+
+    model: Literal["fickian", "centroid"] = Field("fickian", description="shift law")
+    coefficient: Positive = Field(
+        2.0, description="A for fickian (dimensionless, 1-6), eps for centroid (0.1-0.2)")
+    max_shift: Annotated[float, Field(gt=0.0, le=0.5)] = Field(
+        0.2, description="cap on |dr| in units of h")
+    taylor_correction: bool = Field(
+        True, description="correct velocity and pressure by phi += dr . grad phi [F 33]")
+
+
+class SmagorinskySection(_Model):
+    """Sub-particle-scale eddy viscosity nu_T = (C_s dx)^2 sqrt(2 S:S) [F 3]."""
+
+    cs: Annotated[float, Field(gt=0.0, le=0.5)] = Field(0.12, description="Smagorinsky constant")
+
+
+class FluidSection(_Model):
+    """Incompressible SPH fluid (projection method) [F 15-21]."""
+
+    material: FluidMaterial
+    blocks: Annotated[list[Shape], Field(min_length=1)] = Field(
+        description="shapes filled with fluid particles")
+    ppe: PPESection = PPESection()
+    shifting: ShiftingSection | None = Field(None, description="absent: no shifting")
+    smagorinsky: SmagorinskySection | None = Field(None, description="absent: no eddy viscosity")
+    pressure_gradient: Literal["conservative", "corrected"] = Field(
+        "corrected", description="pressure gradient of the correction step: `conservative` "
+        "sum V_j (p_i + p_j) grad W_ij [F 10] (antisymmetric pair forces) or `corrected` "
+        "L_i sum V_j (p_j - p_i) grad W_ij [F 7, F 13] (exact for linear p at the free surface)")
+    cfl: Annotated[float, Field(gt=0.0, le=0.5)] = Field(
+        0.2, description="advective limit dt = cfl h / |u|max [F 48]")
+    dt_max: Positive = Field(1.0, description="upper bound on the fluid time step (s)")
+
+
+class WallsSection(_Model):
+    """Fixed wall particles in several layers; their pressure comes from the PPE solve.
+
+    ``tanks`` are open-top containers given by their inner (fluid-side) rectangle: wall layers
+    are laid outside its left, right and bottom sides. ``boxes`` are filled with wall
+    particles as they are.
+    """
+
+    layers: Annotated[int, Field(ge=1, le=8)] = Field(
+        3, description="wall particle layers of a tank; need layers * dx >= 2 h")
+    tanks: list[Shape] = Field([], description="open-top tanks, inner rectangle (m)")
+    boxes: list[Shape] = Field([], description="rectangles filled with wall particles (m)")
+
+    @model_validator(mode="after")
+    def _not_empty(self):
+        if not self.tanks and not self.boxes:
+            raise ValueError("[walls] needs at least one of `tanks` or `boxes`")
+        return self
+
+
+class CouplingSection(_Model):
+    """Fluid-structure coupling (PHYSICS.md §5): the listed solids are moving boundaries of
+    the fluid and receive its interface pressure force [F 46-48]."""
+
+    structures: Annotated[list[Name], Field(min_length=1)] = Field(
+        description="names of the [solid.NAME] bodies coupled to the fluid")
+    substeps: Annotated[int, Field(ge=1)] | None = Field(
+        None, description="solid sub-steps per fluid step; default ceil(dt_fluid / dt_solid) "
+        "from the two stability limits (the source uses 100)")
+    structure_acceleration: Literal["implicit", "explicit"] = Field(
+        "implicit", description="how the pressure solve sees the structures' acceleration: "
+        "`implicit` solves for the fluid's share (stable for light, thin structures), "
+        "`explicit` takes the last sub-cycle's (the plain staggered scheme; unstable when the "
+        "added mass exceeds the structure's mass)")
+
+
 class Probe(_Model):
     """A time series recorded during the run."""
 
     name: Name
-    kind: Literal["point_displacement", "energy"] = Field(
+    kind: Literal["point_displacement", "energy", "pressure", "surge_front",
+                  "fluid_stats"] = Field(
         description="point_displacement: the particle nearest to `at` in the reference "
-        "configuration; energy: kinetic and strain energy of a body")
+        "configuration; energy: kinetic and strain energy of a body; pressure: fluid pressure "
+        "at `at` (Shepard interpolation over fluid and wall particles); surge_front: largest "
+        "x of the fluid particles; fluid_stats: max speed and kinetic energy of the fluid")
     body: Name
-    at: Vec2 | None = Field(None, description="reference position (m), for point_displacement")
+    at: Vec2 | None = Field(None, description="position (m), for point_displacement and pressure")
 
     @model_validator(mode="after")
     def _needs_at(self):
-        if self.kind == "point_displacement" and self.at is None:
-            raise ValueError("a point_displacement probe needs `at = [x, y]`")
+        if self.kind in ("point_displacement", "pressure") and self.at is None:
+            raise ValueError(f"a {self.kind} probe needs `at = [x, y]`")
         return self
 
 
@@ -296,24 +409,52 @@ class Config(_Model):
     case: CaseSection
     sph: SphSection = SphSection()
     guard: GuardSection = GuardSection()
+    fluid: FluidSection | None = Field(None, description="absent: no fluid")
+    walls: WallsSection | None = Field(None, description="absent: no wall particles")
     solid: dict[Name, SolidBody] = Field({}, description="TLSPH elastic bodies by name")
     soil: dict[Name, SoilBody] = Field({}, description="Drucker-Prager soil bodies by name")
     boundary: Boundary | None = Field(None, description="rigid plane walls")
+    coupling: CouplingSection | None = Field(None, description="absent: bodies ignore each "
+                                             "other")
     probes: list[Probe] = []
 
     @model_validator(mode="after")
     def _cross_references(self):
         bodies = set(self.solid) | set(self.soil)
-        if not bodies:
-            raise ValueError("the scene has no body: add a [solid.NAME] or [soil.NAME] table")
         both = set(self.solid) & set(self.soil)
         if both:
             raise ValueError(f"body name(s) used for both a solid and a soil: {sorted(both)}")
+        if self.fluid is not None:
+            if "fluid" in bodies:
+                raise ValueError("the body name `fluid` is reserved for the fluid")
+            bodies.add("fluid")
+        if not bodies:
+            raise ValueError("the scene has no body: add a [fluid], [solid.NAME] or "
+                             "[soil.NAME] table")
+        if self.walls is not None and self.fluid is None:
+            raise ValueError("[walls] without [fluid]: walls only bound the fluid")
+        fluid_kinds = ("pressure", "surge_front", "fluid_stats")
+        if self.coupling is not None:
+            if self.fluid is None:
+                raise ValueError("[coupling] needs a [fluid] table")
+            if self.fluid.pressure_gradient != "conservative":
+                raise ValueError(
+                    "[coupling] needs fluid.pressure_gradient = \"conservative\": the interface "
+                    "force is the pair form V_s V_f (p_s + p_f) grad W [F 46-47], which balances "
+                    "only against the same form on the fluid side (a difference-form gradient "
+                    "beside it pushes the fluid off the structure under a uniform pressure)")
+            for k, name in enumerate(self.coupling.structures):
+                if name not in self.solid:
+                    raise ValueError(f"coupling.structures[{k}] = {name!r} names no solid; "
+                                     f"solids are: {', '.join(sorted(self.solid)) or 'none'}")
         seen = set()
         for k, p in enumerate(self.probes):
             if p.body not in bodies:
                 raise ValueError(f"probes[{k}].body = {p.body!r} names no body; "
                                  f"bodies are: {', '.join(sorted(bodies))}")
+            if (p.kind in fluid_kinds) != (p.body == "fluid"):
+                raise ValueError(f"probes[{k}]: kind {p.kind!r} does not apply to body "
+                                 f"{p.body!r}")
             if p.name in seen:
                 raise ValueError(f"probes[{k}].name = {p.name!r} is used twice")
             seen.add(p.name)
@@ -322,8 +463,18 @@ class Config(_Model):
     def modules(self) -> list[str]:
         """The physics modules this scene enables, in the order the step runs them."""
         mods = []
+        if self.fluid is not None:
+            mods.append("isph_fluid")
+            if self.walls is not None:
+                mods.append("walls")
+            if self.fluid.shifting is not None:
+                mods.append(f"shifting:{self.fluid.shifting.model}")
+            if self.fluid.smagorinsky is not None:
+                mods.append("smagorinsky")
         for name in self.solid:
             mods.append(f"tlsph_elastic_solid:{name}")
+        if self.coupling is not None:
+            mods.append("fsi_coupling:" + ",".join(self.coupling.structures))
         for name in self.soil:
             mods.append(f"drucker_prager_soil:{name}")
         if self.boundary is not None:

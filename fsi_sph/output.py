@@ -9,7 +9,9 @@ Layout::
     /snapshots/<k>/<body>/<field>          snapshot fields
     /probes/<name>          (n, 1 + ncol) float64, resizable; attrs columns
     /timing                 attrs: per-phase wall time (s), steps, particle_steps, loop_time_s
-    /steps                  per-step records (t, dt, n_sub) as a resizable table
+    /steps                  per-step records (t, dt, n_sub; with a fluid also ppe_iterations,
+                            ppe_residual, ppe_assemble_s, ppe_setup_s, ppe_solve_s, ppe_rebuilt)
+                            as a resizable table; attrs columns
     /restart                attrs: the clock (t, step, next_out, ...); /restart/<body>/<field>:
                             every array of every body at the latest snapshot (``--restart``)
 
@@ -75,8 +77,10 @@ def _append_rows(group, name, rows, columns):
 class RunWriter:
     """Writes a run to ``path`` (``.h5``) and its XDMF sidecar (``.xmf``)."""
 
-    def __init__(self, path, config_json: str, case_file: str | None, static: dict):
+    def __init__(self, path, config_json: str, case_file: str | None, static: dict,
+                 step_columns=("t", "dt", "n_sub")):
         self.path = Path(path)
+        self.step_columns = tuple(step_columns)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self.xmf_path = self.path.with_suffix(".xmf")
         self.snapshots: list[tuple[str, float, dict]] = []  # (group, t, {body: {field: shape}})
@@ -108,6 +112,8 @@ class RunWriter:
         self.last_snapshot_t = -np.inf
         eps = 1e-12 * max(abs(t), 1.0)
         with h5py.File(self.path, "a") as f:
+            self.step_columns = (tuple(json.loads(f["steps"].attrs["columns"])) if "steps" in f
+                                 else ("t", "dt", "n_sub"))
             for name in sorted(f["snapshots"]):
                 g = f["snapshots"][name]
                 if g.attrs["t"] > t + eps:
@@ -151,7 +157,7 @@ class RunWriter:
                 if rows:
                     _append_rows(f["probes"], pname, rows, ("t", *columns))
             if len(step_rows):
-                _append_rows(f, "steps", step_rows, ("t", "dt", "n_sub"))
+                _append_rows(f, "steps", step_rows, self.step_columns)
             for k, v in timing.items():
                 f["timing"].attrs[k] = v
             if restart is not None:

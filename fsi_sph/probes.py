@@ -40,9 +40,56 @@ class Energy:
         return [k, s, h, k + s + h]
 
 
+class FluidPressure:
+    """Fluid pressure at a fixed point: Shepard interpolation over fluid and wall particles.
+    Column: ``p`` (Pa)."""
+
+    columns = ("p",)
+
+    def __init__(self, name, fluid, at):
+        self.name = name
+        self.fluid = fluid
+        self.at = np.asarray([at], dtype=np.float64)
+
+    def sample(self):
+        return [float(self.fluid.pressure_at(self.at)[0])]
+
+
+class SurgeFront:
+    """Largest x of the (non-splashed) fluid particles. Column: ``x_front`` (m)."""
+
+    columns = ("x_front",)
+
+    def __init__(self, name, fluid):
+        self.name = name
+        self.fluid = fluid
+
+    def sample(self):
+        return [self.fluid.surge_front()]
+
+
+class FluidStats:
+    """Largest particle speed (m/s) and kinetic energy (J/m) of the fluid."""
+
+    columns = ("max_speed", "kinetic")
+
+    def __init__(self, name, fluid):
+        self.name = name
+        self.fluid = fluid
+
+    def sample(self):
+        return [self.fluid.max_speed(), self.fluid.kinetic_energy()]
+
+
 def make_probe(cfg, bodies):
     """Build the probe a ``Probe`` config entry asks for (bodies by name)."""
     body = bodies[cfg.body]
     if cfg.kind == "point_displacement":
         return PointDisplacement(cfg.name, body, cfg.at)
+    if cfg.kind == "pressure":
+        return FluidPressure(cfg.name, body, cfg.at)
+    if cfg.kind == "surge_front":
+        return SurgeFront(cfg.name, body)
+    if cfg.kind == "fluid_stats":
+        return FluidStats(cfg.name, body)
     return Energy(cfg.name, body)

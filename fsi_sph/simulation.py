@@ -1,9 +1,9 @@
 """Simulation: builds the bodies a scene declares and advances them.
 
 :meth:`Simulation.step` is the one place where the order of operations of a time step is
-written (DESIGN.md §4). Today's scenes hold TLSPH solids (``[solid.NAME]``) and
-Drucker-Prager soils (``[soil.NAME]``, bounded by the plane walls of ``[boundary]``); the fluid
-and the coupling slot into ``step`` in the places marked there.
+written (DESIGN.md §4). A scene may hold an ISPH fluid with its walls (``[fluid]``,
+``[walls]``), TLSPH solids (``[solid.NAME]``), Drucker-Prager soils (``[soil.NAME]`` with the
+plane walls of ``[boundary]``), and the fluid-structure coupling (``[coupling]``).
 """
 
 from __future__ import annotations
@@ -32,11 +32,23 @@ class Simulation:
         c = cfg.case
         self.structures = {name: ElasticBody(name, sec, c.dx, cfg.sph, c.gravity)
                            for name, sec in cfg.solid.items()}
+        coupled = [self.structures[n] for n in cfg.coupling.structures] if cfg.coupling else []
+        self.fluid = None
+        self.coupling = None
+        if cfg.fluid is not None:  # imported only when a scene has a fluid
+            from fsi_sph.fluid.isph import IncompressibleFluid
+
+            self.fluid = IncompressibleFluid(cfg.fluid, cfg.walls, c.dx, cfg.sph, c.gravity,
+                                             coupled)
+        if cfg.coupling is not None:
+            from fsi_sph.coupling.fsi import FsiCoupling
+
+            self.coupling = FsiCoupling(cfg.coupling, self.fluid, coupled)
         walls = cfg.boundary.walls if cfg.boundary is not None else ()
         for name, sec in cfg.soil.items():  # [soil.NAME] present -> a Drucker-Prager body
             self.structures[name] = DruckerPragerBody(name, sec, c.dx, cfg.sph, c.gravity,
                                                       walls)
-        self.probes = [make_probe(p, self.structures) for p in cfg.probes]
+        self.probes = [make_probe(p, self.bodies()) for p in cfg.probes]
         self.guard = Guard(cfg.guard, self.bodies(), c.gravity)
         self.t = 0.0
         self.n_steps = 0
@@ -52,27 +64,81 @@ class Simulation:
         return cls(cfg)
 
     def bodies(self) -> dict:
-        """Every physics object with particles, by name (each has ``.body``)."""
-        return dict(self.structures)
+        """Every moving physics object, by name (each has ``.body``): the fluid and the
+        structures. (Walls are fixed: they are in the snapshots, not here.)"""
+        out = dict(self.structures)
+        if self.fluid is not None:
+            out["fluid"] = self.fluid
+        return out
 
     @property
     def n_particles(self) -> int:
-        return sum(b.body.n for b in self.structures.values())
+        n = sum(b.body.n for b in self.structures.values())
+        return n + (self.fluid.n if self.fluid is not None else 0)
+
+    @property
+    def step_columns(self):
+        """Columns of the per-step table of the output (``/steps``)."""
+        cols = ("t", "dt", "n_sub")
+        if self.fluid is not None:
+            cols += ("ppe_iterations", "ppe_residual", "ppe_assemble_s", "ppe_setup_s",
+                     "ppe_solve_s", "ppe_rebuilt")
+        if self.coupling is not None:
+            cols += ("power_on_structures", "power_on_fluid")
+        return cols
+
+    def _timed(self, phase, fn, *args):
+        t0 = time.perf_counter()
+        out = fn(*args)
+        self.timings[phase] += time.perf_counter() - t0
+        return out
 
     # ------------------------------------------------------------------ the time step
     def step(self, dt_max=math.inf):
         """Advance every body by one macro step; returns (dt, {body: n_sub})."""
         # 1. time step: the fluid's when there is a fluid; else the stiffest structure's
+        fluid = self.fluid
         limits = [b.stable_dt() for b in self.structures.values()]
-        dt = min(dt_max, *limits)
+        if fluid is not None:  # the structures are sub-cycled inside the fluid step
+            limits.append(fluid.stable_dt())
+            dt = min(dt_max, limits[-1])
+        else:
+            dt = min(dt_max, *limits)
         if not all(d > 0.0 for d in limits):  # NaN or collapsed: let the guard name the culprit
             self.guard.check(self.t, self.n_steps, self.bodies())
             raise SimulationError(f"time step {dt:.3g} s at t = {self.t:.6g} s, step "
                                   f"{self.n_steps}: no stable step is possible")
-        # 2. structures, each sub-cycled to its own stability limit
+        # 2. fluid (PHYSICS.md §2-3): one projection step; coupled structures are moving
+        #    boundary particles of it (their positions, averaged velocity, acceleration)
+        coupling = self.coupling
+        if fluid is not None:
+            if coupling is not None:
+                coupling.before_fluid()
+            self._timed("neighbours", fluid.update_neighbors)
+            self._timed("free_surface", fluid.detect_free_surface)
+            if fluid.shifting is not None:
+                self._timed("shift", fluid.shift, dt)
+            self._timed("predict", fluid.predict, dt)
+            stats = self._timed("ppe", fluid.solve_pressure, dt)
+            # interface forces [F 46-47] from p^{n+1}: the fluid's share now, the
+            # structures' share held over their sub-steps below
+            on_fluid = self._timed("coupling", coupling.forces) if coupling else None
+            self._timed("correct", fluid.correct, dt, on_fluid)
+            self.timings["ppe_assemble"] += stats.assemble_time
+            self.timings["ppe_setup"] += stats.setup_time
+            self.timings["ppe_solve"] += stats.solve_time
+            self.particle_steps += fluid.n
+        # 3. structures, each sub-cycled to its own stability limit
         #    (TLSPH solids and Drucker-Prager soils alike; timed per body kind)
         n_sub = {}
+        if coupling is not None:  # [F 48]: sub-cycled, force held, averaged velocity back
+            t0 = time.perf_counter()
+            n_sub.update(coupling.advance(dt))
+            self.particle_steps += sum(n * self.structures[k].body.n for k, n in n_sub.items())
+            self.timings["solid"] += time.perf_counter() - t0
         for name, body in self.structures.items():
+            if name in n_sub:
+                continue
             t0 = time.perf_counter()
             n = max(1, math.ceil(dt / body.stable_dt() - 1e-12))
             for _ in range(n):
@@ -140,7 +206,10 @@ class Simulation:
                 writer = RunWriter.reopen(resume, self.t)
         if out_dir is not None:
             static = {n: b.static() for n, b in self.bodies().items()}
-            writer = RunWriter(Path(out_dir) / "run.h5", self.cfg.to_json(), case_file, static)
+            if self.fluid is not None and self.fluid.walls is not None:
+                static["walls"] = self.fluid.walls.static()
+            writer = RunWriter(Path(out_dir) / "run.h5", self.cfg.to_json(), case_file, static,
+                               step_columns=self.step_columns)
         rows = {p.name: (p.columns, []) for p in self.probes}
         step_rows = []
         eps = 1e-12 * c.t_end
@@ -157,7 +226,7 @@ class Simulation:
                 snap = None
                 if snapshot:
                     last_snapshot[0] = self.t
-                    snap = {n: b.snapshot() for n, b in self.bodies().items()}
+                    snap = self._snapshot()
                 writer.write(self.t, self.n_steps, snap, rows, step_rows, self._timing_attrs(),
                              status, restart=(self.clock(), self.state()) if snapshot else None)
             for _, r in rows.values():
@@ -181,7 +250,14 @@ class Simulation:
                     status = f"stopped at max_steps = {max_steps}"
                     break
                 dt, n_sub = self.step(dt_max=c.t_end - self.t)
-                step_rows.append([self.t, dt, max(n_sub.values())])
+                row = [self.t, dt, max(n_sub.values(), default=0)]
+                if self.fluid is not None:
+                    st = self.fluid.last_stats
+                    row += [st.iterations, st.residual, st.assemble_time, st.setup_time,
+                            st.solve_time, float(st.rebuilt)]
+                if self.coupling is not None:
+                    row += [self.coupling.power_structure, self.coupling.power_fluid]
+                step_rows.append(row)
                 if bar is not None:
                     bar.update(dt)
                 t0 = time.perf_counter()
@@ -228,10 +304,16 @@ class Simulation:
         good_clock, good_state = self.last_good
         failed_clock, failed_state = self.clock(), self.state()
         self.load_state(good_clock, good_state)
-        snap = {n: b.snapshot() for n, b in self.bodies().items()}
+        snap = self._snapshot()
         self.load_state(failed_clock, failed_state)  # the object keeps the failed state
         writer.write(good_clock["t"], good_clock["step"], snap, {}, [], self._timing_attrs(),
                      status, restart=(good_clock, good_state), last_good=True)
+
+    def _snapshot(self):
+        snap = {n: b.snapshot() for n, b in self.bodies().items()}
+        if self.fluid is not None and self.fluid.walls is not None:
+            snap["walls"] = self.fluid.wall_snapshot()
+        return snap
 
     def _timing_attrs(self):
         out = {f"{k}_s": float(v) for k, v in self.timings.items()}

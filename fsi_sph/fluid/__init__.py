@@ -1,0 +1,1 @@
+"""Incompressible SPH fluid (projection method) [F 15-33]."""

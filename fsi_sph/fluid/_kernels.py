@@ -1,0 +1,523 @@
+"""Numba particle loops of the incompressible SPH fluid (gather-only: iteration ``i`` writes
+only row ``i``).
+
+Index space: the fluid particles come first (``0 .. nf-1``), the wall particles after them
+(``nf .. nf+nw-1``); ``x``, ``v``, ``p``, ``vol`` passed to the loops are these stacked arrays.
+Neighbour lists are CSR: ``nbr_j[nbr_start[i]:nbr_start[i+1]]`` are the sources of row ``i``
+(fluid rows: fluid and wall sources, self excluded; wall rows: fluid sources).
+
+Kernel gradient convention: ``grad W_ij = dW/dr (x_i - x_j) / r`` (gradient at ``x_i``).
+Lattice normalisation: on a full, uniform lattice with h = 1.2 dx the discrete moment
+``sum_j V_j (x_j - x_i) (x) grad W_ij`` is 0.991 I rather than I and the Morris sum of
+``|r_ij|^2`` is 3.92 rather than 4. The callers pass global constants ``grad_scale`` and
+``lap_scale`` that remove these lattice errors (one number per run, so pair antisymmetry and
+the matrix structure are kept) and make the operators exact on linear (gradient) and
+quadratic (Laplacian) fields in the interior of a uniform lattice.
+"""
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from fsi_sph.sph.kernels import kernel_dw, kernel_w
+
+INTERIOR = 0
+NEAR_SURFACE = 1
+SURFACE = 2
+SPLASHED = 3
+
+DET_MIN = 0.05  # |det M| below this (full support: ~1) -> no kernel-gradient correction
+
+
+@njit(cache=True)
+def _sort_row(indices, data, lo, hi):
+    """Insertion sort of ``indices[lo:hi]`` (and ``data`` alongside) by column."""
+    for a in range(lo + 1, hi):
+        c = indices[a]
+        d = data[a]
+        b = a - 1
+        while b >= lo and indices[b] > c:
+            indices[b + 1] = indices[b]
+            data[b + 1] = data[b]
+            b -= 1
+        indices[b + 1] = c
+        data[b + 1] = d
+
+
+@njit(cache=True, parallel=True)
+def position_divergence(x, vol, nbr_start, nbr_j, h, kind, out_divr, out_grad_c):
+    """Free-surface indicator ``div r_i = - sum_j V_j r_ij . grad W_ij`` (2 inside a full 2D
+    support) and the colour gradient ``grad C_i = sum_j V_j grad W_ij`` [F 27] (points into
+    the fluid; zero inside a full, regular support)."""
+    for i in prange(out_divr.shape[0]):
+        s = 0.0
+        g0 = 0.0
+        g1 = 0.0
+        for k in range(nbr_start[i], nbr_start[i + 1]):
+            j = nbr_j[k]
+            d0 = x[i, 0] - x[j, 0]
+            d1 = x[i, 1] - x[j, 1]
+            r = math.sqrt(d0 * d0 + d1 * d1)
+            if r < 1e-12 * h:
+                continue
+            dw = kernel_dw(kind, r, h)
+            s -= vol[j] * r * dw
+            g0 += vol[j] * dw * d0 / r
+            g1 += vol[j] * dw * d1 / r
+        out_divr[i] = s
+        out_grad_c[i, 0] = g0
+        out_grad_c[i, 1] = g1
+
+
+@njit(cache=True, parallel=True)
+def correction_matrices(x, vol, nbr_start, nbr_j, h, kind, out_L):
+    """Oger's kernel-gradient correction [F 13-14]: ``out_L[i] = (M_i^-1)^T`` with
+    ``M_i = sum_j V_j (x_j - x_i) (x) grad W_ij``, so that ``sum_j V_j (phi_j - phi_i) L_i
+    grad W_ij`` is exact for linear ``phi``. Identity where ``|det M_i| < DET_MIN``."""
+    for i in prange(out_L.shape[0]):
+        m00 = 0.0
+        m01 = 0.0
+        m10 = 0.0
+        m11 = 0.0
+        for k in range(nbr_start[i], nbr_start[i + 1]):
+            j = nbr_j[k]
+            d0 = x[i, 0] - x[j, 0]
+            d1 = x[i, 1] - x[j, 1]
+            r = math.sqrt(d0 * d0 + d1 * d1)
+            if r < 1e-12 * h:
+                continue
+            dw = kernel_dw(kind, r, h)
+            g0 = dw * d0 / r
+            g1 = dw * d1 / r
+            m00 -= vol[j] * d0 * g0
+            m01 -= vol[j] * d0 * g1
+            m10 -= vol[j] * d1 * g0
+            m11 -= vol[j] * d1 * g1
+        det = m00 * m11 - m01 * m10
+        if abs(det) < DET_MIN:
+            out_L[i, 0, 0] = 1.0
+            out_L[i, 0, 1] = 0.0
+            out_L[i, 1, 0] = 0.0
+            out_L[i, 1, 1] = 1.0
+        else:
+            out_L[i, 0, 0] = m11 / det
+            out_L[i, 0, 1] = -m10 / det
+            out_L[i, 1, 0] = -m01 / det
+            out_L[i, 1, 1] = m00 / det
+
+
+@njit(cache=True, parallel=True)
+def surface_classes(x, is_surface, n_nbr, grad_c, nbr_start, nbr_j, nf, h, out_class,
+                    out_normal):
+    """Particle classes [F Fig. 2] and free-surface normals [F 27-28].
+
+    ``is_surface[i]``: ``div r_i < chi`` and ``i`` has neighbours. Surface particles get
+    ``n_i = -grad C_i / |grad C_i|``; a near-surface particle (not surface, within ``h`` of a
+    surface particle) takes the normal of its nearest surface neighbour; particles with no
+    neighbour are splashed (zero normal); the rest are interior (zero normal).
+    """
+    for i in prange(nf):
+        out_normal[i, 0] = 0.0
+        out_normal[i, 1] = 0.0
+        if n_nbr[i] == 0:
+            out_class[i] = SPLASHED
+            continue
+        if is_surface[i]:
+            out_class[i] = SURFACE
+            g = math.sqrt(grad_c[i, 0] ** 2 + grad_c[i, 1] ** 2)
+            if g > 0.0:
+                out_normal[i, 0] = -grad_c[i, 0] / g
+                out_normal[i, 1] = -grad_c[i, 1] / g
+            continue
+        best = h * h
+        jb = -1
+        for k in range(nbr_start[i], nbr_start[i + 1]):
+            j = nbr_j[k]
+            if j >= nf or not is_surface[j]:
+                continue
+            d0 = x[i, 0] - x[j, 0]
+            d1 = x[i, 1] - x[j, 1]
+            r2 = d0 * d0 + d1 * d1
+            if r2 <= best:
+                best = r2
+                jb = j
+        if jb < 0:
+            out_class[i] = INTERIOR
+        else:
+            out_class[i] = NEAR_SURFACE
+            g = math.sqrt(grad_c[jb, 0] ** 2 + grad_c[jb, 1] ** 2)
+            if g > 0.0:
+                out_normal[i, 0] = -grad_c[jb, 0] / g
+                out_normal[i, 1] = -grad_c[jb, 1] / g
+
+
+@njit(cache=True, parallel=True)
+def gradients(x, p, v, vol, L, nbr_start, nbr_j, nf, h, kind, out_grad_p, out_grad_v):
+    """Corrected consistent gradients [F 7, F 13]: ``grad phi_i = sum_j V_j (phi_j - phi_i)
+    L_i grad W_ij`` of the pressure (``out_grad_p``, (nf, 2)) and of the velocity
+    (``out_grad_v[i, k, l] = d v_k / d x_l``, (nf, 2, 2))."""
+    for i in prange(nf):
+        gp0 = 0.0
+        gp1 = 0.0
+        g00 = 0.0
+        g01 = 0.0
+        g10 = 0.0
+        g11 = 0.0
+        for k in range(nbr_start[i], nbr_start[i + 1]):
+            j = nbr_j[k]
+            d0 = x[i, 0] - x[j, 0]
+            d1 = x[i, 1] - x[j, 1]
+            r = math.sqrt(d0 * d0 + d1 * d1)
+            if r < 1e-12 * h:
+                continue
+            dw = kernel_dw(kind, r, h)
+            w0 = dw * d0 / r
+            w1 = dw * d1 / r
+            c0 = vol[j] * (L[i, 0, 0] * w0 + L[i, 0, 1] * w1)
+            c1 = vol[j] * (L[i, 1, 0] * w0 + L[i, 1, 1] * w1)
+            dp = p[j] - p[i]
+            du = v[j, 0] - v[i, 0]
+            dv = v[j, 1] - v[i, 1]
+            gp0 += dp * c0
+            gp1 += dp * c1
+            g00 += du * c0
+            g01 += du * c1
+            g10 += dv * c0
+            g11 += dv * c1
+        out_grad_p[i, 0] = gp0
+        out_grad_p[i, 1] = gp1
+        out_grad_v[i, 0, 0] = g00
+        out_grad_v[i, 0, 1] = g01
+        out_grad_v[i, 1, 0] = g10
+        out_grad_v[i, 1, 1] = g11
+
+
+@njit(cache=True, parallel=True)
+def smagorinsky(grad_v, cs_dx2, nu0, out_nu):
+    """Effective viscosity ``nu0 + (C_s dx)^2 sqrt(2 S:S)`` [F 3], ``S`` the strain rate."""
+    for i in prange(grad_v.shape[0]):
+        s00 = grad_v[i, 0, 0]
+        s11 = grad_v[i, 1, 1]
+        s01 = 0.5 * (grad_v[i, 0, 1] + grad_v[i, 1, 0])
+        out_nu[i] = nu0 + cs_dx2 * math.sqrt(2.0 * (s00 * s00 + s11 * s11 + 2.0 * s01 * s01))
+
+
+@njit(cache=True, parallel=True)
+def predict_velocity(x, v, vol, nu, nbr_start, nbr_j, nf, h, kind, eta2, g0, g1, dt, out_v):
+    """Intermediate velocity [F 16] ``u*_i = u_i + dt ((nu + nu_T) lap u_i + g)`` with the
+    Morris viscous term [F 11-12]
+    ``sum_j V_j (nu_i + nu_j) (u_i - u_j) (r_ij . grad W_ij) / (r_ij^2 + eta^2)``.
+    Wall particles carry their own (zero) velocity: no slip."""
+    for i in prange(nf):
+        a0 = 0.0
+        a1 = 0.0
+        for k in range(nbr_start[i], nbr_start[i + 1]):
+            j = nbr_j[k]
+            d0 = x[i, 0] - x[j, 0]
+            d1 = x[i, 1] - x[j, 1]
+            r2 = d0 * d0 + d1 * d1
+            r = math.sqrt(r2)
+            if r < 1e-12 * h:
+                continue
+            f = vol[j] * (nu[i] + nu[j]) * r * kernel_dw(kind, r, h) / (r2 + eta2)
+            a0 += f * (v[i, 0] - v[j, 0])
+            a1 += f * (v[i, 1] - v[j, 1])
+        out_v[i, 0] = v[i, 0] + dt * (a0 + g0)
+        out_v[i, 1] = v[i, 1] + dt * (a1 + g1)
+
+
+@njit(cache=True, parallel=True)
+def velocity_divergence(x, v, vol, nbr_start, nbr_j, nf, h, kind, grad_scale, out_div):
+    """``div u_i = grad_scale * sum_j V_j (u_j - u_i) . grad W_ij`` [F 7] over fluid and wall
+    neighbours (walls with their own velocity)."""
+    for i in prange(nf):
+        s = 0.0
+        for k in range(nbr_start[i], nbr_start[i + 1]):
+            j = nbr_j[k]
+            d0 = x[i, 0] - x[j, 0]
+            d1 = x[i, 1] - x[j, 1]
+            r = math.sqrt(d0 * d0 + d1 * d1)
+            if r < 1e-12 * h:
+                continue
+            dw = kernel_dw(kind, r, h) / r
+            s += vol[j] * ((v[j, 0] - v[i, 0]) * d0 + (v[j, 1] - v[i, 1]) * d1) * dw
+        out_div[i] = grad_scale * s
+
+
+@njit(cache=True, parallel=True)
+def ppe_row_lengths(alpha, f_start, w_start, nf, nw, out_len):
+    """Entries per row of the PPE matrix: a fluid row holds its diagonal and, unless it is a
+    Dirichlet (``alpha = 0``) row, one entry per neighbour; a wall row its diagonal and one
+    entry per fluid neighbour."""
+    for i in prange(nf + nw):
+        if i < nf:
+            n = f_start[i + 1] - f_start[i]
+            out_len[i] = 1 + n if alpha[i] > 0.0 else 1
+        else:
+            w = i - nf
+            out_len[i] = 1 + w_start[w + 1] - w_start[w]
+
+
+@njit(cache=True, parallel=True)
+def ppe_fill(x, vol, alpha, source, L, f_start, f_j, w_start, w_j, nf, nw, h, kind, eta2,
+             lap_scale, diag_ref, rho, gb, implicit, indptr, out_indices, out_data, out_b):
+    """Fill the PPE straight into CSR arrays (``indptr`` from :func:`ppe_row_lengths`).
+
+    Fluid row ``i`` [F 17, F 20-21]: the Morris Laplacian [F 11-12] with
+    ``c_ij = -2 lap_scale V_j r dW/dr / (r^2 + eta^2)``, made exact for linear fields where
+    the support is truncated (free surface, ends of walls) by subtracting its first-moment
+    error ``e_i . grad p_i``, ``e_i = sum_j c_ij (x_j - x_i)``, with the corrected gradient
+    ``grad p_i = sum_j V_j (p_j - p_i) L_i grad W_ij`` [F 13-14] (a correction of the kind
+    of Fatehi & Manzari 2011). It stays on the neighbours of ``i``::
+
+        lap p_i = sum_j a_ij (p_j - p_i),  a_ij = c_ij - V_j e_i . (L_i grad W_ij)
+
+    In the interior of a regular lattice ``e_i = 0`` and this is the plain Morris sum.
+    With ``D_i = sum_j a_ij`` the row is [F 20-21]::
+
+        D_i p_i - alpha_i sum_j a_ij p_j = alpha_i source_i
+
+    which is ``lap p_i = -source_i`` where ``alpha_i = 1`` (``source_i = -rho div u*_i / dt``),
+    ``p_i = 0`` where ``alpha_i = 0`` (free surface) and the [F 21] blend in between.
+    Dirichlet rows and rows without neighbours get the diagonal ``diag_ref`` and ``b = 0``.
+
+    Boundary row ``w`` (global index ``nf + w``; fixed walls, then moving structure
+    particles): Adami's extrapolation (PHYSICS.md §2) from the fluid neighbours ``f``,
+    ``gb[w] = g - a_w`` (``g`` for a fixed wall), scaled by ``diag_ref`` so that its size
+    matches the fluid rows::
+
+        p_w - sum_f p_f W_wf / sum_f W_wf = rho sum_f (g - a_w) . (x_w - x_f) W_wf / sum_f W_wf
+
+    A structure row with ``implicit[w] = rho c / rho_s > 0`` takes its acceleration
+    implicitly, ``a_w = a~_w + f_w(p) / m_w`` with the interface pair force
+    ``f_w = -c V_w sum_f V_f (p_w + p_f) grad W_wf`` [F 46-47] (``gb[w] = g - a~_w``: every
+    acceleration but the fluid's), so the solve sees the structure's inertia (no added-mass
+    instability of the staggered scheme)::
+
+        (1 + sum_f k_wf) p_w + sum_f (k_wf - w_wf) p_f = rho (g - a~_w) . rbar_w,
+        k_wf = -implicit[w] V_f grad W_wf . rbar_w,  rbar_w = sum_f w_wf (x_w - x_f)
+
+    A wall particle with no fluid neighbour gets ``p_w = 0``.
+    Columns are sorted within each row.
+    """
+    for i in prange(nf + nw):
+        lo = indptr[i]
+        if i < nf:
+            if alpha[i] <= 0.0 or f_start[i + 1] == f_start[i]:
+                out_indices[lo] = i
+                out_data[lo] = diag_ref
+                out_b[i] = 0.0
+                continue
+            e0 = 0.0
+            e1 = 0.0
+            for k in range(f_start[i], f_start[i + 1]):
+                j = f_j[k]
+                d0 = x[i, 0] - x[j, 0]
+                d1 = x[i, 1] - x[j, 1]
+                r2 = d0 * d0 + d1 * d1
+                r = math.sqrt(r2)
+                if r > 1e-12 * h:
+                    c = -2.0 * lap_scale * vol[j] * r * kernel_dw(kind, r, h) / (r2 + eta2)
+                    e0 -= c * d0
+                    e1 -= c * d1
+            # e_i . L_i, so that e_i . (L_i gw) = (e_i L_i) . gw
+            l0 = e0 * L[i, 0, 0] + e1 * L[i, 1, 0]
+            l1 = e0 * L[i, 0, 1] + e1 * L[i, 1, 1]
+            diag = 0.0
+            e = lo + 1
+            for k in range(f_start[i], f_start[i + 1]):
+                j = f_j[k]
+                d0 = x[i, 0] - x[j, 0]
+                d1 = x[i, 1] - x[j, 1]
+                r2 = d0 * d0 + d1 * d1
+                r = math.sqrt(r2)
+                a = 0.0
+                if r > 1e-12 * h:
+                    dw = kernel_dw(kind, r, h)
+                    a = -2.0 * lap_scale * vol[j] * r * dw / (r2 + eta2)
+                    a -= vol[j] * dw / r * (l0 * d0 + l1 * d1)
+                diag += a
+                out_indices[e] = j
+                out_data[e] = -alpha[i] * a
+                e += 1
+            out_indices[lo] = i
+            out_data[lo] = diag if diag > 0.0 else diag_ref
+            out_b[i] = alpha[i] * source[i]
+            _sort_row(out_indices, out_data, lo, e)
+        else:
+            w = i - nf
+            sw = 0.0
+            for k in range(w_start[w], w_start[w + 1]):
+                j = w_j[k]
+                d0 = x[i, 0] - x[j, 0]
+                d1 = x[i, 1] - x[j, 1]
+                sw += kernel_w(kind, math.sqrt(d0 * d0 + d1 * d1), h)
+            rb0 = 0.0
+            rb1 = 0.0
+            if implicit[w] > 0.0 and sw > 0.0:
+                for k in range(w_start[w], w_start[w + 1]):
+                    j = w_j[k]
+                    d0 = x[i, 0] - x[j, 0]
+                    d1 = x[i, 1] - x[j, 1]
+                    wt = kernel_w(kind, math.sqrt(d0 * d0 + d1 * d1), h) / sw
+                    rb0 += wt * d0
+                    rb1 += wt * d1
+            out_indices[lo] = i
+            diag = 1.0
+            e = lo + 1
+            rhs = 0.0
+            for k in range(w_start[w], w_start[w + 1]):
+                j = w_j[k]
+                d0 = x[i, 0] - x[j, 0]
+                d1 = x[i, 1] - x[j, 1]
+                r = math.sqrt(d0 * d0 + d1 * d1)
+                wt = 0.0
+                if sw > 0.0:
+                    wt = kernel_w(kind, r, h) / sw
+                kwf = 0.0
+                if implicit[w] > 0.0 and r > 1e-12 * h:
+                    kwf = -implicit[w] * vol[j] * kernel_dw(kind, r, h) / r * (d0 * rb0 + d1 * rb1)
+                diag += kwf
+                out_indices[e] = j
+                out_data[e] = diag_ref * (kwf - wt)
+                rhs += rho * (gb[w, 0] * d0 + gb[w, 1] * d1) * wt
+                e += 1
+            out_data[lo] = diag_ref * diag
+            out_b[i] = diag_ref * rhs
+            _sort_row(out_indices, out_data, lo, e)
+
+
+@njit(cache=True, parallel=True)
+def pressure_gradient(x, p, vol, nbr_start, nbr_j, nf, h, kind, grad_scale, jmax, out_grad):
+    """Conservative pressure gradient [F 8, F 10]
+    ``grad p_i = grad_scale sum_j V_j (p_i + p_j) grad W_ij``: the pair force
+    ``-V_i V_j (p_i + p_j) grad W_ij`` is antisymmetric, so momentum is conserved.
+    Sources ``j >= jmax`` (structure particles) are left to the coupling's pair force."""
+    for i in prange(nf):
+        s0 = 0.0
+        s1 = 0.0
+        for k in range(nbr_start[i], nbr_start[i + 1]):
+            j = nbr_j[k]
+            if j >= jmax:
+                continue
+            d0 = x[i, 0] - x[j, 0]
+            d1 = x[i, 1] - x[j, 1]
+            r = math.sqrt(d0 * d0 + d1 * d1)
+            if r < 1e-12 * h:
+                continue
+            f = vol[j] * (p[i] + p[j]) * kernel_dw(kind, r, h) / r
+            s0 += f * d0
+            s1 += f * d1
+        out_grad[i, 0] = grad_scale * s0
+        out_grad[i, 1] = grad_scale * s1
+
+
+@njit(cache=True, parallel=True)
+def corrected_pressure_gradient(x, p, vol, L, nbr_start, nbr_j, nf, h, kind, jmax, out_grad):
+    """Consistent, corrected pressure gradient [F 7, F 13-14]
+    ``grad p_i = sum_j V_j (p_j - p_i) L_i grad W_ij``: exact for linear ``p`` also where the
+    support is truncated (free surface), but the pair forces are not antisymmetric.
+    Sources ``j >= jmax`` (structure particles) are left to the coupling's pair force."""
+    for i in prange(nf):
+        s0 = 0.0
+        s1 = 0.0
+        for k in range(nbr_start[i], nbr_start[i + 1]):
+            j = nbr_j[k]
+            if j >= jmax:
+                continue
+            d0 = x[i, 0] - x[j, 0]
+            d1 = x[i, 1] - x[j, 1]
+            r = math.sqrt(d0 * d0 + d1 * d1)
+            if r < 1e-12 * h:
+                continue
+            f = vol[j] * (p[j] - p[i]) * kernel_dw(kind, r, h) / r
+            s0 += f * d0
+            s1 += f * d1
+        out_grad[i, 0] = L[i, 0, 0] * s0 + L[i, 0, 1] * s1
+        out_grad[i, 1] = L[i, 1, 0] * s0 + L[i, 1, 1] * s1
+
+
+@njit(cache=True, parallel=True)
+def shift_vectors(x, v, vol, nbr_start, nbr_j, nf, h, kind, model, coef, dt, cap, classes,
+                  normals, out_dr):
+    """Particle shift [F 22-33].
+
+    ``model = 0`` (Fickian, Lind et al. 2012): ``dr_i = -A h |u_i| dt grad C_i``,
+    ``grad C_i = sum_j V_j grad W_ij``; ``model = 1`` (centroid, [F 23-25]):
+    ``dr_i = eps sum_j V_j r_ij W_ij``. Surface and near-surface particles keep only the
+    tangential part ``(I - n n) dr`` [F 31-32]; splashed particles do not shift; ``|dr| <=
+    cap`` (m).
+    """
+    for i in prange(nf):
+        out_dr[i, 0] = 0.0
+        out_dr[i, 1] = 0.0
+        c = classes[i]
+        if c == SPLASHED:
+            continue
+        s0 = 0.0
+        s1 = 0.0
+        for k in range(nbr_start[i], nbr_start[i + 1]):
+            j = nbr_j[k]
+            d0 = x[i, 0] - x[j, 0]
+            d1 = x[i, 1] - x[j, 1]
+            r = math.sqrt(d0 * d0 + d1 * d1)
+            if r < 1e-12 * h:
+                continue
+            if model == 0:
+                f = vol[j] * kernel_dw(kind, r, h) / r
+            else:
+                f = vol[j] * kernel_w(kind, r, h)
+            s0 += f * d0
+            s1 += f * d1
+        if model == 0:
+            speed = math.sqrt(v[i, 0] ** 2 + v[i, 1] ** 2)
+            s0 *= -coef * h * speed * dt
+            s1 *= -coef * h * speed * dt
+        else:
+            s0 *= coef
+            s1 *= coef
+        if c == SURFACE or c == NEAR_SURFACE:
+            n0 = normals[i, 0]
+            n1 = normals[i, 1]
+            dn = s0 * n0 + s1 * n1
+            s0 -= dn * n0
+            s1 -= dn * n1
+        m = math.sqrt(s0 * s0 + s1 * s1)
+        if m > cap:
+            s0 *= cap / m
+            s1 *= cap / m
+        out_dr[i, 0] = s0
+        out_dr[i, 1] = s1
+
+
+@njit(cache=True, parallel=True)
+def apply_shift(dr, grad_p, grad_v, taylor, x, p, v):
+    """``x += dr`` and, with ``taylor``, ``phi += dr . grad phi`` for p and u [F 33]."""
+    for i in prange(dr.shape[0]):
+        d0 = dr[i, 0]
+        d1 = dr[i, 1]
+        x[i, 0] += d0
+        x[i, 1] += d1
+        if taylor:
+            p[i] += d0 * grad_p[i, 0] + d1 * grad_p[i, 1]
+            v0 = v[i, 0] + grad_v[i, 0, 0] * d0 + grad_v[i, 0, 1] * d1
+            v1 = v[i, 1] + grad_v[i, 1, 0] * d0 + grad_v[i, 1, 1] * d1
+            v[i, 0] = v0
+            v[i, 1] = v1
+
+
+@njit(cache=True)
+def shepard_at(points, x, p, nbr_start, nbr_j, h, kind, out):
+    """Shepard interpolation ``sum_j p_j W / sum_j W`` at ``points`` (NaN where empty)."""
+    for i in range(points.shape[0]):
+        sw = 0.0
+        sp = 0.0
+        for k in range(nbr_start[i], nbr_start[i + 1]):
+            j = nbr_j[k]
+            d0 = points[i, 0] - x[j, 0]
+            d1 = points[i, 1] - x[j, 1]
+            w = kernel_w(kind, math.sqrt(d0 * d0 + d1 * d1), h)
+            sw += w
+            sp += w * p[j]
+        out[i] = sp / sw if sw > 0.0 else np.nan

@@ -1,0 +1,41 @@
+"""Free-surface detection by the position divergence, the [F 21] blend and normals.
+
+``div r_i = - sum_j V_j r_ij . grad W_ij`` (fluid and wall neighbours) is 2 inside a full 2D
+support and drops towards 1 at a free surface.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from fsi_sph.fluid import _kernels as K
+
+#: [F 21] blend limits and the class threshold chi [F Fig. 2]
+DIVR_LOW = 1.4
+DIVR_HIGH = 1.6
+CHI = 1.4
+
+
+def blend(divr):
+    """Free-surface coefficient [F 21]: 1 for ``div r >= 1.6``, 0 for ``div r <= 1.4`` and
+    ``0.5 (1 - cos(pi (div r - 1.4) / 0.2))`` in between.
+
+    >>> blend(np.array([1.0, 1.5, 2.0])).round(3).tolist()
+    [0.0, 0.5, 1.0]
+    """
+    t = np.clip((divr - DIVR_LOW) / (DIVR_HIGH - DIVR_LOW), 0.0, 1.0)
+    return 0.5 * (1.0 - np.cos(np.pi * t))
+
+
+def detect(x, vol, nbr_start, nbr_j, nf, h, kind, out_divr, out_grad_c, out_alpha, out_class,
+           out_normal):
+    """Fill the free-surface fields of the fluid rows (arrays of length ``nf``).
+
+    ``x, vol`` are the stacked fluid+wall arrays and ``nbr_*`` the fluid rows' neighbour list.
+    """
+    K.position_divergence(x, vol, nbr_start, nbr_j, h, kind, out_divr, out_grad_c)
+    out_alpha[:] = blend(out_divr)
+    n_nbr = np.diff(nbr_start)
+    is_surface = (out_divr < CHI) & (n_nbr > 0)
+    K.surface_classes(x, is_surface, n_nbr, out_grad_c, nbr_start, nbr_j, nf, h, out_class,
+                      out_normal)

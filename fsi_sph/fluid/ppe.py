@@ -1,0 +1,132 @@
+"""Pressure Poisson equation: numba assembly straight into CSR arrays, pyamg solve.
+
+The matrix has one row per fluid particle (the blended Morris-Laplacian rows of
+[F 17, F 20-21]) and one per wall particle (Adami's extrapolation, PHYSICS.md §2), so the
+fluid and the wall pressures come out of the same solve. It is not symmetric (blended rows,
+wall rows), so the Krylov method is BiCGStab or GMRES, preconditioned by an AMG hierarchy.
+
+Hierarchy reuse: building the AMG hierarchy costs about as much as a solve, and the matrix
+changes little from one step to the next. The hierarchy built on an earlier matrix stays the
+preconditioner as long as the iteration count stays within ``rebuild_growth`` times the count
+right after the last rebuild (and at most ``rebuild_every`` steps); then it is rebuilt.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import pyamg
+import scipy.sparse as sp
+
+from fsi_sph.fluid import _kernels as K
+
+
+@dataclass
+class PPEStats:
+    """One pressure solve: Krylov iterations, final relative residual ||b - A p|| / ||b||,
+    wall times (s) of the assembly, of the AMG set-up (0 when reused) and of the solve."""
+
+    iterations: int = 0
+    residual: float = 0.0
+    assemble_time: float = 0.0
+    setup_time: float = 0.0
+    solve_time: float = 0.0
+    rebuilt: bool = False
+    n_unknowns: int = 0
+
+
+def assemble(x, vol, alpha, source, L, f_start, f_j, w_start, w_j, nf, nw, h, kind, eta2,
+             lap_scale, diag_ref, rho, gb, implicit=None):
+    """Build the PPE as a ``scipy.sparse.csr_array`` and its right-hand side.
+
+    Rows are counted first (:func:`_kernels.ppe_row_lengths`), then filled in place
+    (:func:`_kernels.ppe_fill`); see there for the equations.
+    """
+    n = nf + nw
+    row_len = np.empty(n, dtype=np.int64)
+    K.ppe_row_lengths(alpha, f_start, w_start, nf, nw, row_len)
+    indptr = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(row_len, out=indptr[1:])
+    nnz = int(indptr[-1])
+    indices = np.empty(nnz, dtype=np.int64)
+    data = np.empty(nnz, dtype=np.float64)
+    b = np.empty(n, dtype=np.float64)
+    K.ppe_fill(x, vol, alpha, source, L, f_start, f_j, w_start, w_j, nf, nw, h, kind, eta2,
+               lap_scale, diag_ref, rho, gb,
+               np.zeros(nw) if implicit is None else implicit, indptr, indices, data, b)
+    # pyamg's C++ routines take int32 index arrays
+    A = sp.csr_array((data, indices.astype(np.int32), indptr.astype(np.int32)), shape=(n, n))
+    A.has_sorted_indices = True
+    return A, b
+
+
+class PressureSolver:
+    """pyamg-preconditioned Krylov solver with the hierarchy-reuse policy of the module
+    docstring. ``cfg`` is a ``PPESection``."""
+
+    def __init__(self, cfg):
+        self.cfg = cfg
+        self.ml = None
+        self.age = 0
+        self.base_iterations = None
+        self.last_iterations = 0
+
+    def _needs_rebuild(self, n):
+        if self.ml is None or self.ml.levels[0].A.shape[0] != n:
+            return True
+        if self.age >= self.cfg.rebuild_every:
+            return True
+        limit = max(self.cfg.rebuild_growth * self.base_iterations, self.base_iterations + 2)
+        return self.last_iterations > limit
+
+    def _build(self, A):
+        if self.cfg.amg == "ruge_stuben":
+            self.ml = pyamg.ruge_stuben_solver(A, max_coarse=200)
+        else:
+            self.ml = pyamg.smoothed_aggregation_solver(A, symmetry="nonsymmetric",
+                                                        max_coarse=200)
+        self.age = 0
+        self.base_iterations = None
+
+    def solve(self, A, b, x0):
+        """Solve ``A p = b`` from the initial guess ``x0`` (the last pressure); returns
+        ``(p, PPEStats)``. Raises ``RuntimeError`` if the iteration limit is reached."""
+        stats = PPEStats(n_unknowns=A.shape[0])
+        bnorm = float(np.linalg.norm(b))
+        if bnorm == 0.0:
+            return np.zeros_like(b), stats
+        if self._needs_rebuild(A.shape[0]):
+            self._timed_build(A, stats)
+        p, info = self._krylov(A, b, x0, bnorm, stats)
+        if stats.residual > self.cfg.rtol and not stats.rebuilt:
+            # a stale hierarchy that no longer preconditions well: rebuild and solve again
+            self._timed_build(A, stats)
+            p, info = self._krylov(A, b, p, bnorm, stats)
+        self.last_iterations = stats.iterations
+        if self.base_iterations is None:
+            self.base_iterations = stats.iterations
+        self.age += 1
+        if stats.residual > self.cfg.rtol:
+            raise RuntimeError(f"PPE: no convergence in {self.cfg.maxiter} iterations "
+                               f"(relative residual {stats.residual:.3g} > {self.cfg.rtol:g})")
+        return p, stats
+
+    def _timed_build(self, A, stats):
+        t0 = time.perf_counter()
+        self._build(A)
+        stats.rebuilt = True
+        stats.setup_time += time.perf_counter() - t0
+
+    def _krylov(self, A, b, x0, bnorm, stats):
+        t0 = time.perf_counter()
+        M = self.ml.aspreconditioner()
+        res: list[float] = []
+        krylov = pyamg.krylov.bicgstab if self.cfg.krylov == "bicgstab" else pyamg.krylov.gmres
+        p, info = krylov(A, b, x0=x0, tol=self.cfg.rtol, maxiter=self.cfg.maxiter, M=M,
+                         residuals=res)
+        stats.solve_time += time.perf_counter() - t0
+        stats.iterations += max(len(res) - 1, 0)
+        stats.residual = float(np.linalg.norm(b - A @ p)) / bnorm
+        return p, info
