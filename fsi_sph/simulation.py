@@ -105,7 +105,8 @@ class Simulation:
                 body.substep(dt / n)
             n_sub[name] = n
             self.particle_steps += n * body.body.n
-        self.timings["solid"] += time.perf_counter() - t0
+        if self.structures:
+            self.timings["solid"] += time.perf_counter() - t0
         self.t += dt
         self.n_steps += 1
         return dt, n_sub
