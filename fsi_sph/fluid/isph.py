@@ -36,6 +36,7 @@ from fsi_sph.particles import Body, FieldSpec
 from fsi_sph.sph.kernels import KERNELS, SUPPORT, kernel_dw, kernel_w
 
 ETA = 0.1  # Morris regularisation eta = 0.1 h [F 11]
+FRONT_MIN_NEIGHBORS = 3  # fluid neighbours of a particle counted in the surge front
 DIVR_FULL = 1.95  # div r below this: the kernel support is taken as truncated (full: ~2)
 
 
@@ -317,10 +318,16 @@ class IncompressibleFluid:
         K.shepard_at(points, self.x_all, self.p_all, start, j, self.h, self.kernel, out)
         return out
 
-    def surge_front(self):
-        """Largest x of the fluid particles that are not splashed."""
+    def surge_front(self, min_neighbors=FRONT_MIN_NEIGHBORS):
+        """Largest x of the fluid particles with at least ``min_neighbors`` fluid neighbours
+        (a particle sliding alone along the floor ahead of the flow is a droplet, not the
+        front of the fluid body)."""
         b = self.body
-        keep = b["class"] != K.SPLASHED
+        n_fluid = np.zeros(self.nf, dtype=np.int64)
+        if self.nf:
+            rows = np.repeat(np.arange(self.nf), np.diff(self.ff_start))
+            np.add.at(n_fluid, rows[self.ff_j < self.nf], 1)
+        keep = n_fluid >= min_neighbors
         return float(np.max(b["x"][keep, 0])) if keep.any() else float("nan")
 
     def snapshot(self):
