@@ -14,17 +14,22 @@ printed with the results (the numbers depend on it).
 
 from __future__ import annotations
 
-import argparse
-import json
 import os
-import time
+
+# one BLAS thread before numpy loads (see fsi_sph.__main__._single_threaded_blas)
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("MKL_NUM_THREADS", "1")
+
+import argparse  # noqa: E402
+import json  # noqa: E402
+import time  # noqa: E402
 from pathlib import Path
 
-import numpy as np
+import numpy as np  # noqa: E402
 
-from fsi_sph.config import load_config
-from fsi_sph.fluid.ppe import PressureSolver
-from fsi_sph.simulation import Simulation
+from fsi_sph.config import load_config  # noqa: E402
+from fsi_sph.fluid.ppe import PressureSolver  # noqa: E402
+from fsi_sph.simulation import Simulation  # noqa: E402
 
 CASE = Path(__file__).resolve().parents[1] / "cases" / "dam_break.toml"
 THROUGHPUT_DX = {"10k": 0.014, "40k": 0.007}    # 1 x 2 column: 10.2k and 40.8k fluid
