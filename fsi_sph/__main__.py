@@ -10,6 +10,7 @@ import argparse
 import importlib.util
 import json
 import logging
+import os
 import sys
 from pathlib import Path
 
@@ -211,7 +212,19 @@ def cmd_validate(args):
     return 0
 
 
+def _single_threaded_blas():
+    """One BLAS thread (unless the user set one): the Krylov loop of the PPE makes many
+    short vector operations (dot, norm) for which multi-threaded OpenBLAS only adds
+    synchronisation cost; measured 10x slower PPE solves with it on a busy 2-core machine.
+    Must run before numpy is first imported, which the CLI only does inside commands."""
+    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        if var == "OMP_NUM_THREADS":
+            continue  # numba's OpenMP layer reads it; threads are set with --threads
+        os.environ.setdefault(var, "1")
+
+
 def main(argv=None):
+    _single_threaded_blas()
     from fsi_sph.config import ConfigError
 
     args = _parser().parse_args(argv)

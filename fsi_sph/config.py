@@ -311,12 +311,14 @@ class ShiftingSection(_Model):
     """Particle shifting [F 22-33]; free- and near-surface particles shift tangentially only.
 
     ``fickian``: dr = -A h |u| dt grad C (Lind et al. 2012, the alternative PHYSICS.md §3
-    allows); ``centroid``: dr = eps sum_b V_b r_ab W_ab [F 23-25].
+    allows); ``fickian_fixed``: dr = -A h^2 grad C; ``centroid``: dr = eps sum_b V_b r_ab W_ab [F 23-25].
     """
 
-    model: Literal["fickian", "centroid"] = Field("fickian", description="shift law")
+    model: Literal["fickian", "fickian_fixed", "centroid"] = Field(
+        "fickian", description="shift law")
     coefficient: Positive = Field(
-        2.0, description="A for fickian (dimensionless, 1-6), eps for centroid (0.1-0.2)")
+        2.0, description="A for fickian (dimensionless, 1-6), D / h^2 for fickian_fixed "
+        "(about 0.01-0.5), eps for centroid (0.1-0.2)")
     max_shift: Annotated[float, Field(gt=0.0, le=0.5)] = Field(
         0.2, description="cap on |dr| in units of h")
     taylor_correction: bool = Field(
@@ -338,10 +340,15 @@ class FluidSection(_Model):
     ppe: PPESection = PPESection()
     shifting: ShiftingSection | None = Field(None, description="absent: no shifting")
     smagorinsky: SmagorinskySection | None = Field(None, description="absent: no eddy viscosity")
-    pressure_gradient: Literal["conservative", "corrected"] = Field(
-        "corrected", description="pressure gradient of the correction step: `conservative` "
-        "sum V_j (p_i + p_j) grad W_ij [F 10] (antisymmetric pair forces) or `corrected` "
-        "L_i sum V_j (p_j - p_i) grad W_ij [F 7, F 13] (exact for linear p at the free surface)")
+    pressure_gradient: Literal["corrected", "conservative"] = Field(
+        "corrected", description="pressure gradient of the correction step: `corrected` "
+        "L_i sum V_j (p_j - p_i) grad W_ij [F 7, F 13] (exact for linear p also where the "
+        "support is truncated, so a tank at rest stays at rest) or `conservative` "
+        "sum V_j (p_i + p_j) grad W_ij [F 10] (antisymmetric pair forces: momentum conserved "
+        "to round-off, but a free-surface particle sees half the hydrostatic gradient)")
+    density_relaxation: Annotated[float, Field(ge=0.0, le=1.0)] = Field(
+        0.0, description="coefficient of the compression-only density-error term added to "
+        "the PPE source (Asai et al. 2012); 0 = the pure divergence-free projection [F 17]")
     cfl: Annotated[float, Field(gt=0.0, le=0.5)] = Field(
         0.2, description="advective limit dt = cfl h / |u|max [F 48]")
     dt_max: Positive = Field(1.0, description="upper bound on the fluid time step (s)")
@@ -392,7 +399,7 @@ class Probe(_Model):
         description="point_displacement: the particle nearest to `at` in the reference "
         "configuration; energy: kinetic and strain energy of a body; pressure: fluid pressure "
         "at `at` (Shepard interpolation over fluid and wall particles); surge_front: largest "
-        "x of the fluid particles; fluid_stats: max speed and kinetic energy of the fluid")
+        "x of the fluid particles with at least 3 fluid neighbours; fluid_stats: max speed and kinetic energy of the fluid")
     body: Name
     at: Vec2 | None = Field(None, description="position (m), for point_displacement and pressure")
 

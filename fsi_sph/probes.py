@@ -56,7 +56,8 @@ class FluidPressure:
 
 
 class SurgeFront:
-    """Largest x of the (non-splashed) fluid particles. Column: ``x_front`` (m)."""
+    """Largest x of the fluid particles that have at least 3 fluid neighbours (droplets
+    excluded). Column: ``x_front`` (m)."""
 
     columns = ("x_front",)
 

@@ -38,27 +38,38 @@ def machine() -> dict:
             "git_sha": git_sha(), "versions": versions()}
 
 
-def run_case(case, overrides=(), out_dir=None, progress=False):
-    """Build and run ``case`` with ``overrides``; returns (sim, summary) where summary adds
-    ``wall_time_s`` (set-up + loop) to :meth:`Simulation.run`'s summary."""
+def run_case(case, overrides=(), out_dir=None, max_steps=None, progress=False):
+    """Build and run ``case`` with ``--set``-style ``overrides`` (writing ``out_dir/run.h5``
+    if given); returns (sim, summary) where summary adds ``wall_time_s`` (set-up + loop) to
+    :meth:`Simulation.run`'s summary."""
     from fsi_sph.config import load_config
     from fsi_sph.simulation import Simulation
 
     t0 = time.perf_counter()
     cfg = load_config(case, list(overrides))
     sim = Simulation(cfg)
-    summary = sim.run(out_dir=out_dir, progress=progress, case_file=str(case))
+    summary = sim.run(out_dir=out_dir, max_steps=max_steps, progress=progress,
+                      case_file=str(case))
     summary["wall_time_s"] = time.perf_counter() - t0
+    log.info("%s %s: %d steps, %d particles, %.1f s, %.3g particle-steps/s",
+             Path(case).stem, " ".join(overrides), summary["steps"], summary["n_particles"],
+             summary["wall_time_s"], summary["particle_steps_per_s"])
     return sim, summary
 
 
 def make_record(label, dx, summary, errors, values=None) -> dict:
+    """One entry of the shared record format (``summary`` from :func:`run_case`)."""
     return {"label": label, "dx": float(dx), "n_particles": int(summary["n_particles"]),
             "steps": int(summary["steps"]), "wall_time_s": float(summary["wall_time_s"]),
             "particle_steps_per_s": float(summary["particle_steps_per_s"]),
             "errors": {k: float(v) for k, v in errors.items()},
             "values": {k: (float(v) if isinstance(v, (int, float)) else v)
                        for k, v in (values or {}).items()}}
+
+
+def record(label, dx, summary, errors, values=None) -> dict:
+    """Alias of :func:`make_record` (the fluid scripts' name)."""
+    return make_record(label, dx, summary, errors, values)
 
 
 def markdown_table(result: dict) -> str:
@@ -76,16 +87,23 @@ def markdown_table(result: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_outputs(result: dict, out_dir, error_keys, title, marks=None) -> Path:
-    """Write ``result.json``, ``table.md`` and ``error_vs_time.png`` into ``out_dir``."""
+def write_outputs(result: dict, out_dir, error_keys=None, title=None, marks=None) -> Path:
+    """Write ``result.json``, ``table.md`` and ``error_vs_time.png`` into ``out_dir``
+    (``error_keys``: the errors to plot, default all; ``marks``: other codes' errors)."""
     from fsi_sph.plotting import error_vs_time
 
+    if error_keys is None:
+        error_keys = list(dict.fromkeys(k for r in result["records"] for k in r["errors"]))
+    title = title or f"{result['case']}: error vs wall time"
+    marks = marks if marks is not None else result.get("marks")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     (out / "result.json").write_text(json.dumps(result, indent=1))
     table = markdown_table(result)
     (out / "table.md").write_text(f"# {title}\n\nReference: {result['reference']}\n\n{table}")
-    error_vs_time(result["records"], error_keys, title, out / "error_vs_time.png", marks=marks)
+    if error_keys and result["records"]:
+        error_vs_time(result["records"], error_keys, title, out / "error_vs_time.png",
+                      marks=marks)
     for line in table.splitlines():
         log.info("%s", line)
     log.info("wrote %s", out)

@@ -46,14 +46,16 @@ def _sort_row(indices, data, lo, hi):
 
 
 @njit(cache=True, parallel=True)
-def position_divergence(x, vol, nbr_start, nbr_j, h, kind, out_divr, out_grad_c):
+def position_divergence(x, vol, nbr_start, nbr_j, h, kind, out_divr, out_grad_c, out_sigma):
     """Free-surface indicator ``div r_i = - sum_j V_j r_ij . grad W_ij`` (2 inside a full 2D
-    support) and the colour gradient ``grad C_i = sum_j V_j grad W_ij`` [F 27] (points into
-    the fluid; zero inside a full, regular support)."""
+    support), the colour gradient ``grad C_i = sum_j V_j grad W_ij`` [F 27] (points into
+    the fluid; zero inside a full, regular support) and the kernel sum
+    ``sigma_i = V_i W(0) + sum_j V_j W_ij`` (the number density times the particle volume)."""
     for i in prange(out_divr.shape[0]):
         s = 0.0
         g0 = 0.0
         g1 = 0.0
+        sw = vol[i] * kernel_w(kind, 0.0, h)
         for k in range(nbr_start[i], nbr_start[i + 1]):
             j = nbr_j[k]
             d0 = x[i, 0] - x[j, 0]
@@ -65,7 +67,9 @@ def position_divergence(x, vol, nbr_start, nbr_j, h, kind, out_divr, out_grad_c)
             s -= vol[j] * r * dw
             g0 += vol[j] * dw * d0 / r
             g1 += vol[j] * dw * d1 / r
+            sw += vol[j] * kernel_w(kind, r, h)
         out_divr[i] = s
+        out_sigma[i] = sw
         out_grad_c[i, 0] = g0
         out_grad_c[i, 1] = g1
 
@@ -260,8 +264,8 @@ def ppe_row_lengths(alpha, f_start, w_start, nf, nw, out_len):
 
 
 @njit(cache=True, parallel=True)
-def ppe_fill(x, vol, alpha, source, L, f_start, f_j, w_start, w_j, nf, nw, h, kind, eta2,
-             lap_scale, diag_ref, rho, gb, implicit, indptr, out_indices, out_data, out_b):
+def ppe_fill(x, vol, alpha, source, L, consistent, f_start, f_j, w_start, w_j, nf, nw, h, kind,
+             eta2, lap_scale, diag_ref, rho, gb, implicit, indptr, out_indices, out_data, out_b):
     """Fill the PPE straight into CSR arrays (``indptr`` from :func:`ppe_row_lengths`).
 
     Fluid row ``i`` [F 17, F 20-21]: the Morris Laplacian [F 11-12] with
@@ -273,7 +277,9 @@ def ppe_fill(x, vol, alpha, source, L, f_start, f_j, w_start, w_j, nf, nw, h, ki
 
         lap p_i = sum_j a_ij (p_j - p_i),  a_ij = c_ij - V_j e_i . (L_i grad W_ij)
 
-    In the interior of a regular lattice ``e_i = 0`` and this is the plain Morris sum.
+    The correction is applied on rows with ``consistent[i]`` true (the caller's choice: the
+    free- and near-surface rows); elsewhere ``a_ij = c_ij``, the plain Morris sum, whose
+    matrix is an M-matrix. In the interior of a regular lattice ``e_i = 0`` anyway.
     With ``D_i = sum_j a_ij`` the row is [F 20-21]::
 
         D_i p_i - alpha_i sum_j a_ij p_j = alpha_i source_i
@@ -312,6 +318,8 @@ def ppe_fill(x, vol, alpha, source, L, f_start, f_j, w_start, w_j, nf, nw, h, ki
             e0 = 0.0
             e1 = 0.0
             for k in range(f_start[i], f_start[i + 1]):
+                if not consistent[i]:
+                    break
                 j = f_j[k]
                 d0 = x[i, 0] - x[j, 0]
                 d1 = x[i, 1] - x[j, 1]
@@ -444,7 +452,8 @@ def shift_vectors(x, v, vol, nbr_start, nbr_j, nf, h, kind, model, coef, dt, cap
     """Particle shift [F 22-33].
 
     ``model = 0`` (Fickian, Lind et al. 2012): ``dr_i = -A h |u_i| dt grad C_i``,
-    ``grad C_i = sum_j V_j grad W_ij``; ``model = 1`` (centroid, [F 23-25]):
+    ``grad C_i = sum_j V_j grad W_ij``; ``model = 2`` (Fickian with a fixed diffusion
+    coefficient, ``D = A h^2``): ``dr_i = -A h^2 grad C_i``; ``model = 1`` (centroid, [F 23-25]):
     ``dr_i = eps sum_j V_j r_ij W_ij``. Surface and near-surface particles keep only the
     tangential part ``(I - n n) dr`` [F 31-32]; splashed particles do not shift; ``|dr| <=
     cap`` (m).
@@ -464,7 +473,7 @@ def shift_vectors(x, v, vol, nbr_start, nbr_j, nf, h, kind, model, coef, dt, cap
             r = math.sqrt(d0 * d0 + d1 * d1)
             if r < 1e-12 * h:
                 continue
-            if model == 0:
+            if model != 1:
                 f = vol[j] * kernel_dw(kind, r, h) / r
             else:
                 f = vol[j] * kernel_w(kind, r, h)
@@ -474,6 +483,9 @@ def shift_vectors(x, v, vol, nbr_start, nbr_j, nf, h, kind, model, coef, dt, cap
             speed = math.sqrt(v[i, 0] ** 2 + v[i, 1] ** 2)
             s0 *= -coef * h * speed * dt
             s1 *= -coef * h * speed * dt
+        elif model == 2:
+            s0 *= -coef * h * h
+            s1 *= -coef * h * h
         else:
             s0 *= coef
             s1 *= coef
@@ -505,6 +517,68 @@ def apply_shift(dr, grad_p, grad_v, taylor, x, p, v):
             v1 = v[i, 1] + grad_v[i, 1, 0] * d0 + grad_v[i, 1, 1] * d1
             v[i, 0] = v0
             v[i, 1] = v1
+
+
+@njit(cache=True, parallel=True)
+def wall_normals(xw, vol, nbr_start, nbr_j, h, kind, out_n):
+    """Outward unit normals of wall particles, ``-grad C / |grad C|`` over the wall set
+    (``grad C_w = sum_v V_v grad W_wv``, pointing into the wall). Zero where undefined."""
+    for i in prange(xw.shape[0]):
+        g0 = 0.0
+        g1 = 0.0
+        for k in range(nbr_start[i], nbr_start[i + 1]):
+            j = nbr_j[k]
+            d0 = xw[i, 0] - xw[j, 0]
+            d1 = xw[i, 1] - xw[j, 1]
+            r = math.sqrt(d0 * d0 + d1 * d1)
+            if r < 1e-12 * h:
+                continue
+            dw = kernel_dw(kind, r, h) / r
+            g0 += vol[j] * dw * d0
+            g1 += vol[j] * dw * d1
+        g = math.sqrt(g0 * g0 + g1 * g1)
+        if g > 1e-3 / h:
+            out_n[i, 0] = -g0 / g
+            out_n[i, 1] = -g1 / g
+        else:
+            out_n[i, 0] = 0.0
+            out_n[i, 1] = 0.0
+
+
+@njit(cache=True, parallel=True)
+def no_penetration(x, nbr_start, nbr_j, nf, wall_n, gap, v_old, v):
+    """Kinematic wall guard: a fluid particle closer than ``gap`` (along the wall normal) to
+    its nearest wall particle loses the velocity components (of ``v_old`` and ``v``) that
+    point into the wall. A free-surface particle has a Dirichlet PPE row, which imposes no
+    continuity constraint, so nothing else stops a thin jet from sinking into the floor;
+    elsewhere the wall pressure keeps the particles away and this does nothing."""
+    for i in prange(nf):
+        best = 1e300
+        jb = -1
+        for k in range(nbr_start[i], nbr_start[i + 1]):
+            j = nbr_j[k]
+            if j < nf:
+                continue
+            d0 = x[i, 0] - x[j, 0]
+            d1 = x[i, 1] - x[j, 1]
+            r2 = d0 * d0 + d1 * d1
+            if r2 < best:
+                best = r2
+                jb = j
+        if jb < 0:
+            continue
+        n0 = wall_n[jb - nf, 0]
+        n1 = wall_n[jb - nf, 1]
+        dn = (x[i, 0] - x[jb, 0]) * n0 + (x[i, 1] - x[jb, 1]) * n1
+        if (n0 != 0.0 or n1 != 0.0) and dn < gap:
+            un = v[i, 0] * n0 + v[i, 1] * n1
+            if un < 0.0:
+                v[i, 0] -= un * n0
+                v[i, 1] -= un * n1
+            un = v_old[i, 0] * n0 + v_old[i, 1] * n1
+            if un < 0.0:
+                v_old[i, 0] -= un * n0
+                v_old[i, 1] -= un * n1
 
 
 @njit(cache=True)

@@ -27,13 +27,13 @@ def blend(divr):
     return 0.5 * (1.0 - np.cos(np.pi * t))
 
 
-def detect(x, vol, nbr_start, nbr_j, nf, h, kind, out_divr, out_grad_c, out_alpha, out_class,
-           out_normal):
+def detect(x, vol, nbr_start, nbr_j, nf, h, kind, out_divr, out_grad_c, out_sigma, out_alpha,
+           out_class, out_normal):
     """Fill the free-surface fields of the fluid rows (arrays of length ``nf``).
 
     ``x, vol`` are the stacked fluid+wall arrays and ``nbr_*`` the fluid rows' neighbour list.
     """
-    K.position_divergence(x, vol, nbr_start, nbr_j, h, kind, out_divr, out_grad_c)
+    K.position_divergence(x, vol, nbr_start, nbr_j, h, kind, out_divr, out_grad_c, out_sigma)
     out_alpha[:] = blend(out_divr)
     n_nbr = np.diff(nbr_start)
     is_surface = (out_divr < CHI) & (n_nbr > 0)

@@ -36,6 +36,8 @@ from fsi_sph.particles import Body, FieldSpec
 from fsi_sph.sph.kernels import KERNELS, SUPPORT, kernel_dw, kernel_w
 
 ETA = 0.1  # Morris regularisation eta = 0.1 h [F 11]
+FRONT_MIN_NEIGHBORS = 3  # fluid neighbours of a particle counted in the surge front
+DIVR_FULL = 1.95  # div r below this: the kernel support is taken as truncated (full: ~2)
 
 
 def lattice_scales(dx, h, kind):
@@ -60,6 +62,14 @@ def lattice_scales(dx, h, kind):
     return 1.0 / mxx, lap_scale, lap_scale * np.sum(c)
 
 
+def lattice_sigma(dx, h, kind):
+    """Kernel sum ``sum_j V_j W_ij`` (self included) on a full square lattice."""
+    m = int(math.ceil(SUPPORT * h / dx)) + 1
+    ix, iy = np.meshgrid(np.arange(-m, m + 1), np.arange(-m, m + 1), indexing="ij")
+    r = np.hypot(ix.ravel(), iy.ravel()) * dx
+    return float(sum(dx * dx * kernel_w(kind, ri, h) for ri in r))
+
+
 class IncompressibleFluid:
     """The ISPH fluid of a ``FluidSection`` and, if given, its ``WallsSection`` walls.
 
@@ -71,7 +81,7 @@ class IncompressibleFluid:
     fields = (
         FieldSpec("x", (2,)), FieldSpec("v", (2,)), FieldSpec("a", (2,)), FieldSpec("p"),
         FieldSpec("vol"), FieldSpec("m"), FieldSpec("nu"), FieldSpec("divr"),
-        FieldSpec("alpha"), FieldSpec("grad_c", (2,)), FieldSpec("normal", (2,)),
+        FieldSpec("alpha"), FieldSpec("sigma"), FieldSpec("grad_c", (2,)), FieldSpec("normal", (2,)),
         FieldSpec("class", (), np.int8),
     )
     shifting_fields = (FieldSpec("dr", (2,)),)
@@ -122,10 +132,17 @@ class IncompressibleFluid:
         self.vol_all = np.full(n, dx * dx)
         self.nu_all = np.full(n, self.nu0)
         self.p_all = np.zeros(n)
+        self.wall_n = np.zeros((self.nw, 2))
         if self.walls is not None:
-            self.x_all[self.nf:self.nf + self.n_walls] = self.walls.body["x"]
+            xw = self.walls.body["x"]
+            self.x_all[self.nf:self.nf + self.n_walls] = xw
+            ws, wj = find_neighbors(xw, xw, SUPPORT * self.h, exclude_self=True)
+            # normals of the fixed walls only; structure rows keep a zero normal, so the
+            # kinematic wall guard never acts on them (the interface force stays exact)
+            K.wall_normals(xw, self.walls.body["vol"], ws, wj, self.h, self.kernel, self.wall_n)
         self.set_structures(np.zeros((self.ns, 2)), np.zeros((self.ns, 2)))
         self.grad_scale, self.lap_scale, self.diag_ref = lattice_scales(dx, self.h, self.kernel)
+        self.sigma0 = lattice_sigma(dx, self.h, self.kernel)
         self.ppe = PressureSolver(cfg.ppe)
         self.last_stats = PPEStats()
         self.v_old = np.zeros((self.nf, 2))
@@ -206,8 +223,8 @@ class IncompressibleFluid:
         """``div r``, ``alpha`` [F 21], classes and normals [F 27-28] of the fluid rows."""
         b = self.body
         free_surface.detect(self.x_all, self.vol_all, self.ff_start, self.ff_j, self.nf,
-                            self.h, self.kernel, b["divr"], b["grad_c"], b["alpha"], b["class"],
-                            b["normal"])
+                            self.h, self.kernel, b["divr"], b["grad_c"], b["sigma"], b["alpha"],
+                            b["class"], b["normal"])
 
     def _gradients(self):
         """Corrected gradients of p and u at the current positions [F 7, F 13-14]."""
@@ -270,10 +287,22 @@ class IncompressibleFluid:
         # A moving boundary (structure particle) likewise enters with u_b + dt (g - a_b).
         self.velocity_divergence(self.v_star, self.v_b + dt * self.g_b, self.div)
         source = -self.rho / dt * self.div
+        relax = self.cfg.density_relaxation
+        if relax > 0.0:
+            # Density-error (compression-only) term of the stabilised ISPH source (Asai et
+            # al. 2012): lap p = rho div u* / dt + relax rho (sigma0 - sigma) / (sigma0 dt^2),
+            # applied where sigma > sigma0 in the interior, so that particles that have
+            # drifted together (a divergence-free projection does not see it) are pushed apart.
+            excess = np.maximum(b["sigma"] - self.sigma0, 0.0) / self.sigma0
+            excess[b["class"] != K.INTERIOR] = 0.0
+            source += relax * self.rho / (dt * dt) * excess
         K.correction_matrices(self.x_all, self.vol_all, self.ff_start, self.ff_j, self.h,
                               self.kernel, self.L)
-        A, rhs = assemble(self.x_all, self.vol_all, b["alpha"], source, self.L, self.ff_start,
-                          self.ff_j,
+        # rows whose kernel support is truncated (free surface, near it, or beside the end
+        # of a wall) get the consistent (corrected) Laplacian and pressure gradient
+        self.consistent = (b["class"] != K.INTERIOR) | (b["divr"] < DIVR_FULL)
+        A, rhs = assemble(self.x_all, self.vol_all, b["alpha"], source, self.L, self.consistent,
+                          self.ff_start, self.ff_j,
                           self.wf_start, self.wf_j, self.nf, self.nw, self.h, self.kernel,
                           self.eta2, self.lap_scale, self.diag_ref, self.rho, self.g_b,
                           self.implicit)
@@ -301,7 +330,7 @@ class IncompressibleFluid:
             K.pressure_gradient(self.x_all, self.p_all, self.vol_all, self.ff_start, self.ff_j,
                                 self.nf, self.h, self.kernel, self.grad_scale, jmax,
                                 self.grad_p)
-        else:  # L from solve_pressure, same positions
+        else:
             K.corrected_pressure_gradient(self.x_all, self.p_all, self.vol_all, self.L,
                                           self.ff_start, self.ff_j, self.nf, self.h, self.kernel,
                                           jmax, self.grad_p)
@@ -311,6 +340,9 @@ class IncompressibleFluid:
         if interface_force is not None:
             v += (dt / b["m"])[:, None] * interface_force
         b["a"][:] = (v - self.v_old) / dt
+        if self.nw:
+            K.no_penetration(self.x_all, self.ff_start, self.ff_j, self.nf, self.wall_n,
+                             0.5 * self.dx, self.v_old, v)
         b["x"] += 0.5 * dt * (self.v_old + v)
 
     # ------------------------------------------------------------------ diagnostics
@@ -335,10 +367,16 @@ class IncompressibleFluid:
         K.shepard_at(points, self.x_all, self.p_all, start, j, self.h, self.kernel, out)
         return out
 
-    def surge_front(self):
-        """Largest x of the fluid particles that are not splashed."""
+    def surge_front(self, min_neighbors=FRONT_MIN_NEIGHBORS):
+        """Largest x of the fluid particles with at least ``min_neighbors`` fluid neighbours
+        (a particle sliding alone along the floor ahead of the flow is a droplet, not the
+        front of the fluid body)."""
         b = self.body
-        keep = b["class"] != K.SPLASHED
+        n_fluid = np.zeros(self.nf, dtype=np.int64)
+        if self.nf:
+            rows = np.repeat(np.arange(self.nf), np.diff(self.ff_start))
+            np.add.at(n_fluid, rows[self.ff_j < self.nf], 1)
+        keep = n_fluid >= min_neighbors
         return float(np.max(b["x"][keep, 0])) if keep.any() else float("nan")
 
     def snapshot(self):
@@ -371,7 +409,7 @@ def warm_up(kind):
     alpha = np.ones(n)
     cls = np.zeros(n, dtype=np.int8)
     nrm = np.zeros((n, 2))
-    free_surface.detect(x, vol, start, j, n, h, kind, divr, gc, alpha, cls, nrm)
+    free_surface.detect(x, vol, start, j, n, h, kind, divr, gc, divr.copy(), alpha, cls, nrm)
     L = np.zeros((n, 2, 2))
     K.correction_matrices(x, vol, start, j, h, kind, L)
     gp = np.zeros((n, 2))
@@ -384,14 +422,16 @@ def warm_up(kind):
     div = np.zeros(n)
     K.velocity_divergence(x, v, vol, start, j, n, h, kind, 1.0, div)
     ws = np.zeros(1, dtype=np.int64)
-    assemble(x, vol, alpha, div, L, start, j, ws, np.zeros(0, dtype=np.int64), n, 0, h, kind,
-             0.01, 1.0, 1.0, 1.0, np.zeros((0, 2)))
+    assemble(x, vol, alpha, div, L, cls == 0, start, j, ws, np.zeros(0, dtype=np.int64), n, 0, h,
+             kind, 0.01, 1.0, 1.0, 1.0, np.zeros((0, 2)))
     K.pressure_gradient(x, p, vol, start, j, n, h, kind, 1.0, n, gp)
     K.corrected_pressure_gradient(x, p, vol, L, start, j, n, h, kind, n, gp)
     dr = np.zeros((n, 2))
-    for model in (0, 1):
+    for model in (0, 1, 2):
         K.shift_vectors(x, v, vol, start, j, n, h, kind, model, 1.0, 0.0, 0.1, cls, nrm, dr)
     K.apply_shift(dr, gp, gv, True, x, p, v)
+    K.wall_normals(x, vol, start, j, h, kind, nrm)
+    K.no_penetration(x, start, j, n, nrm, 0.5, v, vs)
     out = np.zeros(1)
     s1, j1 = find_neighbors(x[:1], x, 2 * h)
     K.shepard_at(x[:1], x, p, s1, j1, h, kind, out)

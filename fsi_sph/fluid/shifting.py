@@ -1,8 +1,10 @@
 """Particle shifting [F 22-33] (PHYSICS.md §3).
 
 Default law: Fickian (Lind et al. 2012), ``dr = -A h |u| dt grad C`` with the colour gradient
-``grad C = sum_j V_j grad W_ij`` over fluid and wall neighbours; the [F 23-25] centroid law
-``dr = eps sum_j V_j r_ij W_ij`` is the other choice. Either way free- and near-surface
+``grad C = sum_j V_j grad W_ij`` over fluid and wall neighbours; ``fickian_fixed`` uses a
+fixed diffusion coefficient ``D = A h^2`` (PHYSICS.md §3: ``D ~ 0.5 h^2``), which also acts
+where the flow is slow; the [F 23-25] centroid law ``dr = eps sum_j V_j r_ij W_ij`` is the
+third choice. Either way free- and near-surface
 particles shift only tangentially [F 31-32], splashed particles do not shift, ``|dr|`` is
 capped, and velocity and pressure are corrected by a Taylor step [F 33].
 """
@@ -11,7 +13,7 @@ from __future__ import annotations
 
 from fsi_sph.fluid import _kernels as K
 
-MODELS = {"fickian": 0, "centroid": 1}
+MODELS = {"fickian": 0, "centroid": 1, "fickian_fixed": 2}
 
 
 class Shifting:

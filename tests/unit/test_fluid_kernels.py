@@ -1,0 +1,210 @@
+"""Every numba loop of fsi_sph.fluid._kernels against a dense numpy oracle (or an exact
+answer) on a perturbed lattice."""
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from fsi_sph.fluid import _kernels as K
+from fsi_sph.fluid.free_surface import blend, detect
+from fsi_sph.fluid.ppe import assemble
+from fsi_sph.neighbors import find_neighbors
+from tests import fluid_reference as ref
+from tests.conftest import lattice
+
+H = 1.2
+KIND = 0
+
+
+def nbrs(x, nrows=None):
+    nrows = len(x) if nrows is None else nrows
+    return find_neighbors(x[:nrows], x, 2 * H, exclude_self=True)
+
+
+def test_position_divergence_matches_oracle(perturbed):
+    x = perturbed
+    vol = np.full(len(x), 1.0)
+    s, j = nbrs(x)
+    divr, gc, sig = np.zeros(len(x)), np.zeros((len(x), 2)), np.zeros(len(x))
+    K.position_divergence(x, vol, s, j, H, KIND, divr, gc, sig)
+    d_ref, g_ref = ref.position_divergence(x, vol, H, len(x))
+    assert_allclose(divr, d_ref, rtol=1e-12, atol=1e-14)
+    assert_allclose(gc, g_ref, rtol=1e-12, atol=1e-14)
+
+
+def test_velocity_divergence_and_gradients_match_oracle(perturbed):
+    rng = np.random.default_rng(1)
+    x = perturbed
+    n = len(x)
+    nf = 90  # the last rows act as walls (sources only)
+    vol = rng.uniform(0.8, 1.2, n)
+    v = rng.normal(size=(n, 2))
+    p = rng.normal(size=n)
+    s, j = nbrs(x, nf)
+    out = np.zeros(nf)
+    K.velocity_divergence(x, v, vol, s, j, nf, H, KIND, 1.01, out)
+    assert_allclose(out, ref.velocity_divergence(x, v, vol, H, nf, 1.01), rtol=1e-12, atol=1e-13)
+    g = np.zeros((nf, 2))
+    K.pressure_gradient(x, p, vol, s, j, nf, H, KIND, 1.01, g)
+    assert_allclose(g, ref.conservative_gradient(x, p, vol, H, nf, 1.01), rtol=1e-12, atol=1e-13)
+    L = np.zeros((nf, 2, 2))
+    K.correction_matrices(x, vol, s, j, H, KIND, L)
+    assert_allclose(L, ref.correction(x, vol, H, nf), rtol=1e-12, atol=1e-13)
+    K.corrected_pressure_gradient(x, p, vol, L, s, j, nf, H, KIND, g)
+    assert_allclose(g, ref.corrected_gradient(x, p, vol, H, nf), rtol=1e-12, atol=1e-13)
+    nu = rng.uniform(1e-3, 2e-3, n)
+    vs = np.zeros((nf, 2))
+    K.predict_velocity(x, v, vol, nu, s, j, nf, H, KIND, 0.0144, 0.1, -9.81, 0.01, vs)
+    want = ref.predict_velocity(x, v, vol, nu, H, nf, 0.0144, np.array([0.1, -9.81]), 0.01)
+    assert_allclose(vs, want, rtol=1e-12, atol=1e-13)
+
+
+def test_corrected_gradients_exact_for_linear_fields(perturbed):
+    x = perturbed
+    n = len(x)
+    vol = np.ones(n)
+    s, j = nbrs(x)
+    L = np.zeros((n, 2, 2))
+    K.correction_matrices(x, vol, s, j, H, KIND, L)
+    p = 3.0 * x[:, 0] - 2.0 * x[:, 1] + 1.0
+    v = np.column_stack([x[:, 1], 2.0 * x[:, 0]])
+    gp, gv = np.zeros((n, 2)), np.zeros((n, 2, 2))
+    K.gradients(x, p, v, vol, L, s, j, n, H, KIND, gp, gv)
+    ok = np.abs(np.linalg.det(L)) > 0  # every row here has a full-rank moment
+    assert_allclose(gp[ok], np.tile([3.0, -2.0], (ok.sum(), 1)), atol=1e-10)
+    assert_allclose(gv[ok], np.tile([[0.0, 1.0], [2.0, 0.0]], (ok.sum(), 1, 1)), atol=1e-10)
+
+
+def test_ppe_assembly_matches_dense_oracle(perturbed):
+    rng = np.random.default_rng(3)
+    x = perturbed
+    n = len(x)
+    nf = 90
+    nw = n - nf
+    vol = np.ones(n)
+    fs, fj = nbrs(x, nf)
+    ws, wj = find_neighbors(x[nf:], x[:nf], 2 * H)
+    alpha = rng.uniform(0.0, 1.0, nf)
+    alpha[:10] = 0.0
+    alpha[10:40] = 1.0
+    source = rng.normal(size=nf)
+    consistent = rng.uniform(size=nf) < 0.5
+    L = np.zeros((nf, 2, 2))
+    K.correction_matrices(x, vol, fs, fj, H, KIND, L)
+    g = np.array([0.0, -9.81])
+    A, b = assemble(x, vol, alpha, source, L, consistent, fs, fj, ws, wj, nf, nw, H, KIND,
+                    0.0144, 1.02, 7.0, 1000.0, g)
+    A_ref, b_ref = ref.ppe_dense(x, vol, alpha, source, consistent, nf, H, 0.0144, 1.02, 7.0,
+                                 1000.0, g)
+    assert A.has_sorted_indices
+    assert np.all(np.diff(A.indices[A.indptr[5]:A.indptr[6]]) > 0)
+    assert_allclose(A.toarray(), A_ref, rtol=1e-12, atol=1e-12)
+    assert_allclose(b, b_ref, rtol=1e-12, atol=1e-9)
+
+
+def test_blend_is_continuous_and_bounded():
+    d = np.linspace(1.0, 2.0, 1001)
+    a = blend(d)
+    assert a[0] == 0.0 and a[-1] == 1.0
+    assert np.all(np.diff(a) >= 0)
+    assert np.max(np.abs(np.diff(a))) < 0.01
+    assert blend(np.array([1.5]))[0] == pytest.approx(0.5)
+
+
+def test_free_surface_flags_exactly_the_outer_layer_of_a_square_block():
+    x = lattice(20, 20)
+    n = len(x)
+    vol = np.ones(n)
+    s, j = nbrs(x)
+    divr, gc, sig, alpha = np.zeros(n), np.zeros((n, 2)), np.zeros(n), np.zeros(n)
+    cls, nrm = np.zeros(n, dtype=np.int8), np.zeros((n, 2))
+    detect(x, vol, s, j, n, H, KIND, divr, gc, sig, alpha, cls, nrm)
+    outer = (x[:, 0] < 1) | (x[:, 0] > 19) | (x[:, 1] < 1) | (x[:, 1] > 19)
+    assert np.array_equal(cls == K.SURFACE, outer)
+    assert np.all(alpha[outer] == 0.0)
+    assert np.all(alpha[~outer] == 1.0)
+    # normals of the middle of the left side point to -x
+    left = (x[:, 0] < 1) & (x[:, 1] > 3) & (x[:, 1] < 17)
+    assert_allclose(nrm[left], np.tile([-1.0, 0.0], (left.sum(), 1)), atol=1e-12)
+    # the second layer is near-surface, with its nearest surface neighbour's normal
+    second = (x[:, 0] > 1) & (x[:, 0] < 2) & (x[:, 1] > 3) & (x[:, 1] < 17)
+    assert np.all(cls[second] == K.NEAR_SURFACE)
+    assert_allclose(nrm[second], np.tile([-1.0, 0.0], (second.sum(), 1)), atol=1e-12)
+
+
+@pytest.mark.parametrize("model", [0, 1, 2])
+def test_surface_particles_never_shift_along_their_normal(model):
+    rng = np.random.default_rng(11)
+    x = lattice(16, 16) + rng.uniform(-0.15, 0.15, (256, 2))
+    n = len(x)
+    vol = np.ones(n)
+    v = rng.normal(size=(n, 2))
+    s, j = nbrs(x)
+    divr, gc, sig, alpha = np.zeros(n), np.zeros((n, 2)), np.zeros(n), np.zeros(n)
+    cls, nrm = np.zeros(n, dtype=np.int8), np.zeros((n, 2))
+    detect(x, vol, s, j, n, H, KIND, divr, gc, sig, alpha, cls, nrm)
+    dr = np.zeros((n, 2))
+    K.shift_vectors(x, v, vol, s, j, n, H, KIND, model, 0.5, 0.1, 0.2 * H, cls, nrm, dr)
+    surf = (cls == K.SURFACE) | (cls == K.NEAR_SURFACE)
+    assert surf.sum() > 40
+    assert np.max(np.abs(np.einsum("ij,ij->i", dr[surf], nrm[surf]))) < 1e-15
+    inner = cls == K.INTERIOR
+    assert np.max(np.hypot(*dr[inner].T)) > 1e-4  # interior particles do shift
+    assert np.max(np.hypot(*dr.T)) <= 0.2 * H * (1 + 1e-12)
+
+
+def test_apply_shift_taylor_corrects_linear_fields():
+    x = np.array([[0.0, 0.0], [1.0, 1.0]])
+    dr = np.array([[0.1, -0.2], [0.0, 0.05]])
+    gp = np.array([[2.0, 3.0], [1.0, 1.0]])
+    gv = np.zeros((2, 2, 2))
+    gv[:, 0, 1] = 1.0
+    p = np.array([1.0, 2.0])
+    v = np.zeros((2, 2))
+    K.apply_shift(dr, gp, gv, True, x, p, v)
+    assert_allclose(x, [[0.1, -0.2], [1.0, 1.05]])
+    assert_allclose(p, [1.0 + 0.2 - 0.6, 2.05])
+    assert_allclose(v, [[-0.2, 0.0], [0.05, 0.0]])
+
+
+def test_wall_guard_removes_only_inward_velocity():
+    # a floor of wall particles at y = -0.5, -1.5, -2.5 and fluid particles above
+    xw = lattice(10, 3, origin=(0.0, -3.0))
+    xf = np.array([[5.0, 0.2], [5.0, 0.2], [5.0, 1.0]])
+    x = np.vstack([xf, xw])
+    nf = 3
+    vol = np.ones(len(x))
+    ws, wj = find_neighbors(xw, xw, 2 * H, exclude_self=True)
+    wn = np.zeros((len(xw), 2))
+    K.wall_normals(xw, vol[nf:], ws, wj, H, KIND, wn)
+    mid = (xw[:, 1] > -1) & (xw[:, 0] > 2) & (xw[:, 0] < 8)
+    assert_allclose(wn[mid], np.tile([0.0, 1.0], (mid.sum(), 1)), atol=1e-12)
+    s, j = nbrs(x, nf)
+    v = np.array([[1.0, -2.0], [1.0, 2.0], [1.0, -2.0]])
+    v_old = v.copy()
+    K.no_penetration(x, s, j, nf, wn, 0.5, v_old, v)
+    # 0.7 above the top wall layer: inside the 0.5 gap? no (0.7 > 0.5) -> untouched
+    assert_allclose(v, [[1.0, -2.0], [1.0, 2.0], [1.0, -2.0]])
+    x[0, 1] = -0.1  # 0.4 above the wall layer, moving down: loses the normal part
+    K.no_penetration(x, s, j, nf, wn, 0.5, v_old, v)
+    assert_allclose(v[0], [1.0, 0.0], atol=1e-12)
+    assert_allclose(v_old[0], [1.0, 0.0], atol=1e-12)
+
+
+def test_shepard_interpolation_of_a_constant():
+    x = lattice(6, 6)
+    p = np.full(len(x), 5.0)
+    pts = np.array([[3.0, 3.0], [100.0, 100.0]])
+    s, j = find_neighbors(pts, x, 2 * H)
+    out = np.zeros(2)
+    K.shepard_at(pts, x, p, s, j, H, KIND, out)
+    assert out[0] == pytest.approx(5.0)
+    assert np.isnan(out[1])
+
+
+def test_smagorinsky_viscosity_of_simple_shear():
+    gv = np.zeros((1, 2, 2))
+    gv[0, 0, 1] = 2.0  # du/dy = 2: S01 = 1, sqrt(2 S:S) = 2
+    nu = np.zeros(1)
+    K.smagorinsky(gv, 0.01, 1e-6, nu)
+    assert nu[0] == pytest.approx(1e-6 + 0.02)

@@ -1,0 +1,139 @@
+"""Dam break on a dry floor: surge-front position against experiments.
+
+Column a = 1 m wide, 2a high (cases/dam_break.toml). The data are read at run time from
+``data_dir/dam_break_rigid_surge_front/`` (see SOURCE.md there):
+
+- Koshizuka & Oka (1996): columns time (s), front x (m) for a = 1 m, g = 9.81;
+- Martin & Moyce (1952): T = t sqrt(g/a), Z = x/a.
+
+Both are compared in the dimensionless form Z(T). ``errors.front_pct`` is the largest
+relative error |Z_sim - Z_exp| / Z_exp over the points of both data sets (the range the data
+cover); ``errors.front_pct_koshizuka`` and ``errors.front_pct_martin_moyce`` give each one.
+The front is the largest x of the fluid particles with at least 3 fluid neighbours (the
+``surge_front`` probe; single particles sliding ahead along the floor are not counted).
+Also written: Z(T) against the data, error against wall time, and a pressure snapshot.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from fsi_sph.output import read_probe
+from validation.common import record, run_case, write_outputs
+
+CASE = Path(__file__).resolve().parents[1] / "cases" / "dam_break.toml"
+LADDER = [0.04, 0.02, 0.01]   # m; a / dx = 25, 50, 100
+QUICK = [0.05, 0.035]
+FOLDER = "dam_break_rigid_surge_front"
+
+
+def load_data(data_dir):
+    """Experimental (T, Z) pairs: {name: (T, Z)}."""
+    d = Path(data_dir) / FOLDER
+    ko = np.loadtxt(d / "koshizuka_oka_1996_tip_position.tsv", skiprows=1)
+    mm = np.loadtxt(d / "martin_moyce_1952_surge_front_trixiparticles.csv", skiprows=1,
+                    delimiter=",")
+    g, a = 9.81, 1.0  # the geometry the Koshizuka & Oka file is given for (SOURCE.md)
+    return {"koshizuka": (ko[:, 0] * math.sqrt(g / a), ko[:, 1] / a),
+            "martin_moyce": (mm[:, 0], mm[:, 1])}
+
+
+def front_errors(T_sim, Z_sim, data):
+    """Largest relative front error (%) against each data set, over the data's T range."""
+    out = {}
+    for name, (T, Z) in data.items():
+        zs = np.interp(T, T_sim, Z_sim)
+        out[f"front_pct_{name}"] = float(100.0 * np.max(np.abs(zs - Z) / Z))
+    out["front_pct"] = max(out.values())
+    return out
+
+
+def validate(quick, data_dir, out_dir):
+    from fsi_sph.plotting import error_vs_time
+
+    out_dir = Path(out_dir)
+    data = load_data(data_dir)
+    records = []
+    curves = {}
+    for dx in (QUICK if quick else LADDER):
+        label = f"dx={dx:g}"
+        sim, summary = run_case(CASE, [f"case.dx={dx}"], out_dir / label)
+        a = sim.cfg.fluid.blocks[0].size[0]
+        g = abs(sim.cfg.case.gravity[1])
+        t, cols = read_probe(summary["output"], "front")
+        T_sim = t * math.sqrt(g / a)
+        Z_sim = (cols["x_front"] - sim.cfg.fluid.blocks[0].origin[0]) / a
+        curves[label] = (T_sim, Z_sim)
+        errs = front_errors(T_sim, Z_sim, data)
+        ppe = _ppe_summary(summary["output"])
+        records.append(record(label, dx, summary, errs,
+                              {"n_fluid": sim.fluid.n, "a_over_dx": a / dx, **ppe}))
+    result = {"case": "dam_break",
+              "reference": "surge front, Koshizuka & Oka (1996) and Martin & Moyce (1952)",
+              "records": records}
+    write_outputs(result, out_dir)
+    _plot_front(curves, data, out_dir / "dam_break_front.png")
+    error_vs_time(records, ["front_pct", "front_pct_koshizuka", "front_pct_martin_moyce"],
+                  "dam break: surge front error vs wall time", out_dir / "dam_break_error.png")
+    _plot_pressure(records[-1], out_dir)
+    return result
+
+
+def _ppe_summary(run_file):
+    import json
+
+    import h5py
+
+    with h5py.File(run_file, "r") as f:
+        cols = json.loads(f["steps"].attrs["columns"])
+        s = f["steps"][()]
+    it = s[:, cols.index("ppe_iterations")]
+    return {"ppe_iterations_mean": float(it.mean()), "ppe_iterations_max": float(it.max()),
+            "ppe_residual_max": float(s[:, cols.index("ppe_residual")].max()),
+            "ppe_rebuilds": float(s[:, cols.index("ppe_rebuilt")].sum())}
+
+
+def _plot_front(curves, data, path):
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.4), layout="constrained")
+    for label, (T, Z) in curves.items():
+        ax.plot(T, Z, lw=1.3, label=f"ISPH {label}")
+    marks = {"koshizuka": "s", "martin_moyce": "o"}
+    for name, (T, Z) in data.items():
+        ax.plot(T, Z, marks[name], mfc="none", color="k", label=name.replace("_", " & "))
+    ax.set_xlim(0, 2.6)
+    ax.set_ylim(1, 4.5)
+    ax.set_xlabel("T = t sqrt(g/a)")
+    ax.set_ylabel("Z = x/a")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def _plot_pressure(rec, out_dir):
+    """Pressure of the finest run at the snapshot nearest to t = 0.3 s (before impact)."""
+    import h5py
+    import matplotlib.pyplot as plt
+
+    run = Path(out_dir) / rec["label"] / "run.h5"
+    with h5py.File(run, "r") as f:
+        snaps = sorted(f["snapshots"])
+        ts = np.array([f["snapshots"][s].attrs["t"] for s in snaps])
+        k = int(np.argmin(np.abs(ts - 0.3)))
+        g = f["snapshots"][snaps[k]]
+        x, p = g["fluid/x"][()], g["fluid/p"][()]
+        xw = g["walls/x"][()] if "walls" in g else np.zeros((0, 2))
+        t = ts[k]
+    fig, ax = plt.subplots(figsize=(8, 3.6), layout="constrained")
+    ax.scatter(xw[:, 0], xw[:, 1], s=1, c="0.6", linewidths=0)
+    sc = ax.scatter(x[:, 0], x[:, 1], c=p / 1000.0, s=2, cmap="viridis", linewidths=0)
+    fig.colorbar(sc, ax=ax, label="p (kPa)")
+    ax.set_aspect("equal")
+    ax.set_title(f"dam break, {rec['label']}, t = {t:.3f} s: pressure")
+    fig.savefig(Path(out_dir) / "dam_break_pressure.png", dpi=150)
+    plt.close(fig)
