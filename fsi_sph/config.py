@@ -159,8 +159,8 @@ class GuardSection(_Model):
     check_every: Annotated[int, Field(ge=1)] = Field(
         10, description="check every N steps (and before every snapshot)")
     domain: Shape | None = Field(
-        None, description="particles must stay inside; default: the initial bounding box "
-        "grown by its own size on every side")
+        None, description="particles must stay inside; default: the initial bounding box of "
+        "the bodies and walls grown by 3 times its size on every side")
     energy_factor: Annotated[float, Field(gt=1.0)] = Field(
         10.0, description="stop when the kinetic energy exceeds this times the initial "
         "kinetic + strain energy plus the work gravity can do across the domain")

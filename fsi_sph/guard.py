@@ -4,7 +4,7 @@ Checked every ``guard.check_every`` steps (and before every snapshot):
 
 - a position or velocity that is NaN or infinite;
 - a particle outside the domain (``guard.domain``, by default the initial bounding box of all
-  bodies grown by its own size on every side);
+  bodies and fixed walls grown by 3 times its size on every side);
 - total kinetic energy above ``guard.energy_factor`` times the energy the scene can release:
   initial kinetic + strain energy + the work gravity can do across the domain height.
 
@@ -32,16 +32,17 @@ def _energy(obj):
 class Guard:
     """Checks on the physics objects of a simulation (each has ``.body``: x, v, m)."""
 
-    def __init__(self, cfg, bodies: dict, gravity):
+    def __init__(self, cfg, bodies: dict, gravity, fixed_points=()):
         self.cfg = cfg
         xs = [o.body["x"] for o in bodies.values() if o.body.n]
+        xs += [x for x in fixed_points if len(x)]  # walls bound the scene too
         lo = np.min([x.min(axis=0) for x in xs], axis=0)
         hi = np.max([x.max(axis=0) for x in xs], axis=0)
         if cfg.domain is not None:
             self.lo = np.asarray(cfg.domain.origin, dtype=float)
             self.hi = self.lo + np.asarray(cfg.domain.size, dtype=float)
         else:
-            pad = max(float(np.max(hi - lo)), 1e-12)
+            pad = 3.0 * max(float(np.max(hi - lo)), 1e-12)
             self.lo, self.hi = lo - pad, hi + pad
         e0 = sum(sum(_energy(o)) for o in bodies.values())
         mass = sum(float(np.sum(o.body["m"])) for o in bodies.values())

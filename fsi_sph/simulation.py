@@ -49,7 +49,10 @@ class Simulation:
             self.structures[name] = DruckerPragerBody(name, sec, c.dx, cfg.sph, c.gravity,
                                                       walls)
         self.probes = [make_probe(p, self.bodies()) for p in cfg.probes]
-        self.guard = Guard(cfg.guard, self.bodies(), c.gravity)
+        fixed = []
+        if self.fluid is not None and self.fluid.walls is not None:
+            fixed.append(self.fluid.walls.body["x"])
+        self.guard = Guard(cfg.guard, self.bodies(), c.gravity, fixed)
         self.t = 0.0
         self.n_steps = 0
         self.particle_steps = 0

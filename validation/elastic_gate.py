@@ -1,0 +1,100 @@
+"""Dam break through an elastic gate (Antoci et al. 2007; PHYSICS.md §8, [F 3-1]).
+
+Horizontal and vertical displacement of the gate's free end against the experiment
+(``antoci2007_elastic_gate/exp_x_Ex10X.txt``, ``exp_y_Ex10Y.txt``; each file's first sample
+is subtracted, as SOURCE.md says), compared at the experiment's ten times:
+
+- ``errors.peak_x_pct``: our peak horizontal displacement vs the experiment's 46.3 mm;
+- ``values.peak_time_x_s`` (experiment: 0.162 s), ``values.rms_x_mm``, ``values.rms_y_mm``:
+  RMS differences at the experiment's times.
+
+A plot overlays the experiment, the source paper's SPH curve (Antoci) and ours. Ladder:
+dx = 2.5, 1.67, 1.25 mm (2, 3, 4 particles through the 5 mm gate); ``--quick`` runs the
+coarsest.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from validation.common import CASES, machine, make_record, run_case, write_outputs
+
+CASE = CASES / "dam_break_elastic_gate.toml"
+LADDER = [("2 / gate thickness", 0.0025), ("3 / gate thickness", 0.005 / 3),
+          ("4 / gate thickness", 0.00125)]
+REF_PEAK_X = 0.0463  # m, experiment (SOURCE.md)
+MARKS = {"Antoci SPH (2007)": {"peak_x_pct": 100 * (0.0506 - REF_PEAK_X) / REF_PEAK_X}}
+
+
+def load_curve(path):
+    """(t, displacement) of a digitised curve, first sample subtracted."""
+    d = np.loadtxt(path)
+    return d[:, 0], d[:, 1] - d[0, 1]
+
+
+def compare(t, ux, uy, data_dir):
+    """Errors and values of one run against the experiment."""
+    folder = Path(data_dir) / "antoci2007_elastic_gate"
+    tx, ex = load_curve(folder / "exp_x_Ex10X.txt")
+    ty, ey = load_curve(folder / "exp_y_Ex10Y.txt")
+    inside_x = tx <= t[-1] + 1e-9
+    inside_y = ty <= t[-1] + 1e-9
+    ox = np.interp(tx[inside_x], t, ux)
+    oy = np.interp(ty[inside_y], t, uy)
+    k = int(np.argmax(ux))
+    return ({"peak_x_pct": 100 * (ux[k] - REF_PEAK_X) / REF_PEAK_X},
+            {"peak_x_mm": 1e3 * ux[k], "peak_time_x_s": float(t[k]),
+             "rms_x_mm": 1e3 * math.sqrt(np.mean((ox - ex[inside_x]) ** 2)),
+             "rms_y_mm": 1e3 * math.sqrt(np.mean((oy - ey[inside_y]) ** 2)),
+             "experiment_points_compared": int(inside_x.sum())})
+
+
+def plot(runs, data_dir, path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    folder = Path(data_dir) / "antoci2007_elastic_gate"
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4), layout="constrained")
+    for ax, comp, exp, sph in ((axes[0], 0, "exp_x_Ex10X.txt", "antoci_sph_x.txt"),
+                               (axes[1], 1, "exp_y_Ex10Y.txt", "antoci_sph_y.txt")):
+        te, de = load_curve(folder / exp)
+        ts, ds = load_curve(folder / sph)
+        ax.plot(te, 1e3 * de, "ko", label="experiment (Antoci 2007)")
+        ax.plot(ts, 1e3 * ds, "k--", lw=1, label="SPH, Antoci 2007")
+        for label, (t, ux, uy) in runs.items():
+            ax.plot(t, 1e3 * (ux if comp == 0 else uy), lw=1.5, label=f"fsi_sph, {label}")
+        ax.set_xlabel("t (s)")
+        ax.set_ylabel(("horizontal" if comp == 0 else "vertical") + " displacement (mm)")
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def validate(quick=False, data_dir="../shared/validation_data",
+             out_dir="validation/results/elastic_gate"):
+    from fsi_sph.output import read_probe
+
+    out = Path(out_dir)
+    ladder = LADDER[:1] if quick else LADDER
+    records, runs = [], {}
+    for label, dx in ladder:
+        _, s = run_case(CASE, [f"case.dx={dx}", "case.output_every=0.02"],
+                        out_dir=out / f"dx_{dx:.5g}")
+        t, c = read_probe(s["output"], "gate_tip")
+        errors, values = compare(t, c["ux"], c["uy"], data_dir)
+        values.update(status=s["status"], loop_s=s["loop_time_s"])
+        records.append(make_record(label, dx, s, errors, values))
+        runs[label] = (t, c["ux"], c["uy"])
+    plot(runs, data_dir, out / "gate_displacement.png")
+    result = {"case": "elastic_gate",
+              "reference": "experiment, Antoci et al. 2007: peak horizontal displacement "
+                           "46.3 mm at 0.162 s",
+              "machine": machine(), "marks": MARKS, "records": records}
+    write_outputs(result, out, ["peak_x_pct"], "Elastic gate: error vs wall time")
+    return result
