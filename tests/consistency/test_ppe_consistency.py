@@ -37,7 +37,7 @@ def manufactured_error(n):
     empty = np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64)
     # row: lap p = -source
     A, b = assemble(x, vol, alpha, -lap, L, np.zeros(npart, dtype=bool), s, j, *empty, npart,
-                    0, h, KIND, (0.1 * h) ** 2, lap_scale, diag, 1.0, np.zeros(2))
+                    0, h, KIND, (0.1 * h) ** 2, lap_scale, diag, 1.0, np.zeros((0, 2)))
     b[~inside] = diag * exact[~inside]  # Dirichlet rows: diag p = diag p_exact
     solver = PressureSolver(PPESection(rtol=1e-12, maxiter=500))
     p, stats = solver.solve(A, b, np.zeros(npart))
@@ -113,7 +113,7 @@ def test_conservative_pressure_forces_are_antisymmetric():
     p = rng.uniform(0, 1e4, n)
     s, j = find_neighbors(x, x, 2.4, exclude_self=True)
     g = np.zeros((n, 2))
-    K.pressure_gradient(x, p, vol, s, j, n, 1.2, KIND, 1.01, g)
+    K.pressure_gradient(x, p, vol, s, j, n, 1.2, KIND, 1.01, len(x), g)
     force = -vol[:, None] * g
     total = force.sum(axis=0)
     assert np.max(np.abs(total)) < 1e-12 * np.abs(force).sum()

@@ -45,12 +45,12 @@ def test_velocity_divergence_and_gradients_match_oracle(perturbed):
     K.velocity_divergence(x, v, vol, s, j, nf, H, KIND, 1.01, out)
     assert_allclose(out, ref.velocity_divergence(x, v, vol, H, nf, 1.01), rtol=1e-12, atol=1e-13)
     g = np.zeros((nf, 2))
-    K.pressure_gradient(x, p, vol, s, j, nf, H, KIND, 1.01, g)
+    K.pressure_gradient(x, p, vol, s, j, nf, H, KIND, 1.01, len(x), g)
     assert_allclose(g, ref.conservative_gradient(x, p, vol, H, nf, 1.01), rtol=1e-12, atol=1e-13)
     L = np.zeros((nf, 2, 2))
     K.correction_matrices(x, vol, s, j, H, KIND, L)
     assert_allclose(L, ref.correction(x, vol, H, nf), rtol=1e-12, atol=1e-13)
-    K.corrected_pressure_gradient(x, p, vol, L, s, j, nf, H, KIND, g)
+    K.corrected_pressure_gradient(x, p, vol, L, s, j, nf, H, KIND, len(x), g)
     assert_allclose(g, ref.corrected_gradient(x, p, vol, H, nf), rtol=1e-12, atol=1e-13)
     nu = rng.uniform(1e-3, 2e-3, n)
     vs = np.zeros((nf, 2))
@@ -93,7 +93,7 @@ def test_ppe_assembly_matches_dense_oracle(perturbed):
     K.correction_matrices(x, vol, fs, fj, H, KIND, L)
     g = np.array([0.0, -9.81])
     A, b = assemble(x, vol, alpha, source, L, consistent, fs, fj, ws, wj, nf, nw, H, KIND,
-                    0.0144, 1.02, 7.0, 1000.0, g)
+                    0.0144, 1.02, 7.0, 1000.0, np.tile(g, (nw, 1)))
     A_ref, b_ref = ref.ppe_dense(x, vol, alpha, source, consistent, nf, H, 0.0144, 1.02, 7.0,
                                  1000.0, g)
     assert A.has_sorted_indices
