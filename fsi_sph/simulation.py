@@ -167,12 +167,18 @@ class Simulation:
 
     def state(self) -> dict:
         """Everything the step needs to continue: a copy of every body's arrays."""
-        return {name: {k: v.copy() for k, v in o.body.arrays.items()}
-                for name, o in self.bodies().items()}
+        out = {name: {k: v.copy() for k, v in o.body.arrays.items()}
+               for name, o in self.bodies().items()}
+        for name, o in self.bodies().items():  # state outside the body arrays
+            if hasattr(o, "extra_state"):
+                out[f"{name}.extra"] = o.extra_state()
+        return out
 
     def load_state(self, clock: dict, state: dict):
         """Put a saved state back (restart); the bodies must match the saved ones."""
         bodies = self.bodies()
+        extra = {k: state[k] for k in state if k.endswith(".extra")}
+        state = {k: v for k, v in state.items() if not k.endswith(".extra")}
         if set(state) != set(bodies):
             raise SimulationError(f"restart: the saved bodies {sorted(state)} are not the "
                                   f"scene's {sorted(bodies)}")
@@ -184,6 +190,8 @@ class Simulation:
                         f"restart: body {name!r} field {k!r} has shape {v.shape} in the file "
                         f"but {b.arrays[k].shape if k in b.arrays else 'none'} in the scene")
                 b.arrays[k][...] = v
+        for key, arrays in extra.items():
+            bodies[key.removesuffix(".extra")].load_extra_state(arrays)
         self.t = float(clock["t"])
         self.n_steps = int(clock["step"])
         self.particle_steps = int(clock["particle_steps"])
@@ -225,6 +233,10 @@ class Simulation:
         def flush(snapshot, status="running", good=None):
             nonlocal step_rows
             t0 = time.perf_counter()
+            if snapshot:  # output or not, so that the physics never depends on the output
+                for o in self.bodies().values():
+                    if hasattr(o, "at_snapshot"):
+                        o.at_snapshot()
             if writer is not None:
                 snap = None
                 if snapshot:

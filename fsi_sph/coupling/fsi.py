@@ -22,6 +22,7 @@ import math
 import numpy as np
 
 from fsi_sph.coupling import _kernels as K
+from fsi_sph.particles import FieldSpec
 
 
 def substep_count(dt_f, dt_s, fixed=None):
@@ -76,6 +77,8 @@ class FsiCoupling:
         for b in self.bodies:
             self.slices.append(slice(k, k + b.body.n))
             k += b.body.n
+            # the sub-cycle's mean velocity and acceleration, kept with the body (restart)
+            b.body.allocate((FieldSpec("v_bar", (2,)), FieldSpec("a_bar", (2,))))
         self.v_bar = np.zeros((ns, 2))
         self.a_bar = np.zeros((ns, 2))
         self.on_structure = np.zeros((ns, 2))
@@ -85,6 +88,9 @@ class FsiCoupling:
         self.n_sub = {}
 
     def before_fluid(self):
+        for b, sl in zip(self.bodies, self.slices, strict=True):
+            self.v_bar[sl] = b.body["v_bar"]
+            self.a_bar[sl] = b.body["a_bar"]
         if self.cfg.structure_acceleration == "explicit":
             self.fluid.set_structures(self.v_bar, self.a_bar)
             return
@@ -124,6 +130,8 @@ class FsiCoupling:
             n = substep_count(dt, b.stable_dt(), self.cfg.substeps)
             self.v_bar[sl] = advance_structure(b, dt, n)
             self.a_bar[sl] = (b.body["v"] - v0) / dt
+            b.body["v_bar"][:] = self.v_bar[sl]
+            b.body["a_bar"][:] = self.a_bar[sl]
             self.n_sub[b.name] = n
         self.power_structure = interface_power(self.on_structure, self.v_bar)
         self.power_fluid = interface_power(self.on_fluid, self.fluid.body["v"])

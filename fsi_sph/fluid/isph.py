@@ -177,6 +177,20 @@ class IncompressibleFluid:
             self.g_b[self.n_walls:] = self.gravity - a_other
             self.implicit[self.n_walls:] = self.rho * self.grad_scale / rho_s
 
+    def extra_state(self):
+        """State outside the fluid body's arrays that the next step needs (restart): the
+        stacked fluid, wall and structure pressures, the warm start of the next solve."""
+        return {"p_all": self.p_all.copy()}
+
+    def load_extra_state(self, state):
+        self.p_all[:] = state["p_all"]
+        if self.walls is not None:
+            self.walls.body["p"][:] = self.p_all[self.nf:self.nf + self.n_walls]
+
+    def at_snapshot(self):
+        """Called when a snapshot is written: rebuild the AMG hierarchy at the next solve."""
+        self.ppe.reset()
+
     def structure_pressure(self):
         """Pressure of the structure particles from the last solve (stacked)."""
         return self.p_all[self.nf + self.n_walls:]

@@ -95,6 +95,14 @@ class PressureSolver:
         self.age = 0
         self.base_iterations = None
 
+    def reset(self):
+        """Drop the hierarchy; the next solve builds a new one. Called at every snapshot, so
+        that a run restarted from a snapshot uses the same preconditioners as an
+        uninterrupted one (bit-identical restart)."""
+        self.ml = None
+        self.age = 0
+        self.base_iterations = None
+
     def solve(self, A, b, x0):
         """Solve ``A p = b`` from the initial guess ``x0`` (the last pressure); returns
         ``(p, PPEStats)``. Raises ``RuntimeError`` if the iteration limit is reached."""
