@@ -238,7 +238,8 @@ class Probe(_Model):
         description="point_displacement: the particle nearest to `at` in the reference "
         "configuration; energy: kinetic and strain energy of a body; pressure: fluid pressure "
         "at `at` (Shepard interpolation over fluid and wall particles); surge_front: largest "
-        "x of the fluid particles with at least 3 fluid neighbours; fluid_stats: max speed and kinetic energy of the fluid")
+        "x of the fluid particles with at least 3 fluid neighbours; fluid_stats: max speed and "
+        "kinetic energy of the fluid")
     body: Name
     at: Vec2 | None = Field(None, description="position (m), for point_displacement and pressure")
 

@@ -81,7 +81,8 @@ class IncompressibleFluid:
     fields = (
         FieldSpec("x", (2,)), FieldSpec("v", (2,)), FieldSpec("a", (2,)), FieldSpec("p"),
         FieldSpec("vol"), FieldSpec("m"), FieldSpec("nu"), FieldSpec("divr"),
-        FieldSpec("alpha"), FieldSpec("sigma"), FieldSpec("grad_c", (2,)), FieldSpec("normal", (2,)),
+        FieldSpec("alpha"), FieldSpec("sigma"), FieldSpec("grad_c", (2,)),
+        FieldSpec("normal", (2,)),
         FieldSpec("class", (), np.int8),
     )
     shifting_fields = (FieldSpec("dr", (2,)),)
@@ -373,7 +374,8 @@ def warm_up(kind):
     div = np.zeros(n)
     K.velocity_divergence(x, v, vol, start, j, n, h, kind, 1.0, div)
     ws = np.zeros(1, dtype=np.int64)
-    assemble(x, vol, alpha, div, L, cls == 0, start, j, ws, np.zeros(0, dtype=np.int64), n, 0, h, kind,
+    assemble(x, vol, alpha, div, L, cls == 0, start, j, ws, np.zeros(0, dtype=np.int64), n, 0,
+             h, kind,
              0.01, 1.0, 1.0, 1.0, np.zeros(2))
     K.pressure_gradient(x, p, vol, start, j, n, h, kind, 1.0, gp)
     K.corrected_pressure_gradient(x, p, vol, L, start, j, n, h, kind, gp)

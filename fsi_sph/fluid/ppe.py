@@ -37,8 +37,8 @@ class PPEStats:
     n_unknowns: int = 0
 
 
-def assemble(x, vol, alpha, source, L, consistent, f_start, f_j, w_start, w_j, nf, nw, h, kind, eta2,
-             lap_scale, diag_ref, rho, gravity):
+def assemble(x, vol, alpha, source, L, consistent, f_start, f_j, w_start, w_j, nf, nw, h, kind,
+             eta2, lap_scale, diag_ref, rho, gravity):
     """Build the PPE as a ``scipy.sparse.csr_array`` and its right-hand side.
 
     Rows are counted first (:func:`_kernels.ppe_row_lengths`), then filled in place
@@ -53,9 +53,9 @@ def assemble(x, vol, alpha, source, L, consistent, f_start, f_j, w_start, w_j, n
     indices = np.empty(nnz, dtype=np.int64)
     data = np.empty(nnz, dtype=np.float64)
     b = np.empty(n, dtype=np.float64)
-    K.ppe_fill(x, vol, alpha, source, L, consistent, f_start, f_j, w_start, w_j, nf, nw, h, kind, eta2,
-               lap_scale, diag_ref, rho, float(gravity[0]), float(gravity[1]), indptr, indices,
-               data, b)
+    K.ppe_fill(x, vol, alpha, source, L, consistent, f_start, f_j, w_start, w_j, nf, nw, h, kind,
+               eta2, lap_scale, diag_ref, rho, float(gravity[0]), float(gravity[1]), indptr,
+               indices, data, b)
     # pyamg's C++ routines take int32 index arrays
     A = sp.csr_array((data, indices.astype(np.int32), indptr.astype(np.int32)), shape=(n, n))
     A.has_sorted_indices = True
