@@ -217,10 +217,8 @@ def _single_threaded_blas():
     short vector operations (dot, norm) for which multi-threaded OpenBLAS only adds
     synchronisation cost; measured 10x slower PPE solves with it on a busy 2-core machine.
     Must run before numpy is first imported, which the CLI only does inside commands."""
-    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-        if var == "OMP_NUM_THREADS":
-            continue  # numba's OpenMP layer reads it; threads are set with --threads
-        os.environ.setdefault(var, "1")
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    os.environ.setdefault("MKL_NUM_THREADS", "1")
 
 
 def main(argv=None):

@@ -311,7 +311,8 @@ class ShiftingSection(_Model):
     """Particle shifting [F 22-33]; free- and near-surface particles shift tangentially only.
 
     ``fickian``: dr = -A h |u| dt grad C (Lind et al. 2012, the alternative PHYSICS.md §3
-    allows); ``fickian_fixed``: dr = -A h^2 grad C; ``centroid``: dr = eps sum_b V_b r_ab W_ab [F 23-25].
+    allows); ``fickian_fixed``: dr = -A h^2 grad C; ``centroid``:
+    dr = eps sum_b V_b r_ab W_ab [F 23-25].
     """
 
     model: Literal["fickian", "fickian_fixed", "centroid"] = Field(
@@ -399,7 +400,8 @@ class Probe(_Model):
         description="point_displacement: the particle nearest to `at` in the reference "
         "configuration; energy: kinetic and strain energy of a body; pressure: fluid pressure "
         "at `at` (Shepard interpolation over fluid and wall particles); surge_front: largest "
-        "x of the fluid particles with at least 3 fluid neighbours; fluid_stats: max speed and kinetic energy of the fluid")
+        "x of the fluid particles with at least 3 fluid neighbours; fluid_stats: max speed and "
+        "kinetic energy of the fluid")
     body: Name
     at: Vec2 | None = Field(None, description="position (m), for point_displacement and pressure")
 

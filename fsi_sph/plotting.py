@@ -55,6 +55,8 @@ def plot_run(path, out_dir, field="von_mises", max_snapshots=12):
         xlo, xhi = np.full(2, np.inf), np.full(2, -np.inf)
         for k in pick:
             for g in f["snapshots"][snaps[k]].values():
+                if field not in g:  # e.g. wall particles carry only x and p
+                    continue
                 s = _scalar(g[field][()])
                 lo, hi = min(lo, s.min()), max(hi, s.max())
                 x = g["x"][()]
@@ -65,6 +67,9 @@ def plot_run(path, out_dir, field="von_mises", max_snapshots=12):
             fig, ax = plt.subplots(figsize=(8, 4.5), layout="constrained")
             for g in g0.values():
                 x = g["x"][()]
+                if field not in g:
+                    ax.scatter(x[:, 0], x[:, 1], s=2, c="0.6", linewidths=0)
+                    continue
                 sc = ax.scatter(x[:, 0], x[:, 1], c=_scalar(g[field][()]), s=4, vmin=lo, vmax=hi,
                                 cmap="viridis", linewidths=0)
             fig.colorbar(sc, ax=ax, label=field)

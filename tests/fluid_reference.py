@@ -65,8 +65,9 @@ def corrected_gradient(x, p, vol, h, nrows):
 
 def predict_velocity(x, v, vol, nu, h, nrows, eta2, g, dt):
     a = np.zeros((nrows, 2))
-    for i, j, d, r in pairs(x, h, nrows):
-        a[i] += vol[j] * (nu[i] + nu[j]) * r * kernel_dw(KIND, r, h) / (r * r + eta2) * (v[i] - v[j])
+    for i, j, _, r in pairs(x, h, nrows):
+        f = vol[j] * (nu[i] + nu[j]) * r * kernel_dw(KIND, r, h) / (r * r + eta2)
+        a[i] += f * (v[i] - v[j])
     return v[:nrows] + dt * (a + g)
 
 

@@ -25,7 +25,7 @@ from fsi_sph.output import read_probe
 from validation.common import record, run_case, write_outputs
 
 CASE = Path(__file__).resolve().parents[1] / "cases" / "dam_break.toml"
-LADDER = [0.04, 0.02, 0.01]   # m; a / dx = 25, 50, 100
+LADDER = [0.05, 0.035, 0.025, 0.0175]   # m; a / dx = 20, 29, 40, 57
 QUICK = [0.05, 0.035]
 FOLDER = "dam_break_rigid_surge_front"
 

@@ -81,7 +81,8 @@ class IncompressibleFluid:
     fields = (
         FieldSpec("x", (2,)), FieldSpec("v", (2,)), FieldSpec("a", (2,)), FieldSpec("p"),
         FieldSpec("vol"), FieldSpec("m"), FieldSpec("nu"), FieldSpec("divr"),
-        FieldSpec("alpha"), FieldSpec("sigma"), FieldSpec("grad_c", (2,)), FieldSpec("normal", (2,)),
+        FieldSpec("alpha"), FieldSpec("sigma"), FieldSpec("grad_c", (2,)),
+        FieldSpec("normal", (2,)),
         FieldSpec("class", (), np.int8),
     )
     shifting_fields = (FieldSpec("dr", (2,)),)

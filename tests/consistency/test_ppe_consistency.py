@@ -80,7 +80,6 @@ def test_divergence_after_projection_is_small():
     cfg = load_config(None, text=TANK)
     sim = Simulation(cfg)
     f = sim.fluid
-    rng = np.random.default_rng(5)
     x = f.body["x"]
     f.body["v"][:] = np.column_stack([np.sin(3 * x[:, 0]),
                                       np.cos(2 * x[:, 1])])
