@@ -95,3 +95,14 @@ def find_neighbors(xd, xs, radius, exclude_self=False):
     _count_or_fill(xd, xs, lo, radius, ncx, ncy, cstart, citems, r2, exclude_self,
                    count, start, nbr_j, True)
     return start, nbr_j
+
+
+def transpose_csr(nbr_start, nbr_j, n_sources):
+    """The reverse pair list: for each source ``j``, the destinations ``i`` that list it
+    (sorted), as ``(start, i)``. Same pairs, so a pair force gathered on both sides from a
+    list and its transpose cancels exactly."""
+    rows = np.repeat(np.arange(len(nbr_start) - 1, dtype=np.int64), np.diff(nbr_start))
+    order = np.lexsort((rows, nbr_j))
+    start = np.zeros(n_sources + 1, dtype=np.int64)
+    np.cumsum(np.bincount(nbr_j, minlength=n_sources), out=start[1:])
+    return start, rows[order]

@@ -108,15 +108,17 @@ class FsiCoupling:
     def forces(self):
         """Interface forces [F 46-47] from the pressures of the last solve, at the current
         positions; returns the fluid's share (N/m per fluid particle)."""
-        from fsi_sph.neighbors import find_neighbors
+        from fsi_sph.neighbors import transpose_csr
 
         fl = self.fluid
         nb0 = fl.nf + fl.n_walls
         x_s = fl.x_all[nb0:]
         x_f = fl.x_all[:fl.nf]
-        r = 2.0 * fl.h
-        sf = find_neighbors(x_s, x_f, r)
-        fs = find_neighbors(x_f, x_s, r)
+        # the structure rows' fluid neighbours are the fluid's own boundary lists (rows after
+        # the walls, built this step); the fluid rows' structure neighbours their transpose
+        k0 = fl.wf_start[fl.n_walls]
+        sf = (fl.wf_start[fl.n_walls:] - k0, fl.wf_j[k0:])
+        fs = transpose_csr(*sf, fl.nf)
         interface_forces(x_s, fl.p_all[nb0:], fl.vol_all[nb0:], x_f, fl.p_all[:fl.nf],
                          fl.vol_all[:fl.nf], *sf, *fs, fl.h, fl.kernel, fl.grad_scale,
                          self.on_structure, self.on_fluid)

@@ -208,7 +208,8 @@ def cauchy_stress(F, P):
 
 
 # ---------------------------------------------------------------------------------------------
-# Energy-conserving hourglass control: the exact gradient of the penalty energy
+# Energy-conserving hourglass control (PHYSICS.md §4, "hourglass control"): the exact gradient
+# of the penalty energy
 #   Phi = (c/4) sum_a sum_b wt_ab |eps_ab|^2,  eps_ab = F_a X_ab - x_ab,
 #   wt_ab = V_a V_b W_ab / |X_ab|^2,  X_ab = X_b - X_a,  x_ab = x_b - x_a,  c = alpha_HG E.
 # Phi vanishes for any affine motion (F_a X_ab = x_ab), so only non-affine (hourglass) modes

@@ -37,3 +37,16 @@ def test_empty_and_degenerate():
     assert all(set(j[s[i]:s[i + 1]]) == {k for k in (i - 2, i - 1, i + 1, i + 2)
                                            if 0 <= k < 50 and abs(x[k, 0] - x[i, 0]) < 0.05}
                for i in range(50))
+
+
+def test_transpose_csr(rng):
+    from fsi_sph.neighbors import transpose_csr
+
+    xd = rng.uniform(0, 1, (80, 2))
+    xs = rng.uniform(0, 1, (120, 2))
+    s, j = find_neighbors(xd, xs, 0.15)
+    ts, ti = transpose_csr(s, j, len(xs))
+    rs, ri = find_neighbors(xs, xd, 0.15)
+    np.testing.assert_array_equal(ts, rs)
+    for k in range(len(xs)):
+        assert sorted(ti[ts[k]:ts[k + 1]]) == sorted(ri[rs[k]:rs[k + 1]])
