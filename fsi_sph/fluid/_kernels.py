@@ -20,6 +20,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from fsi_sph.sph import operators
 from fsi_sph.sph.kernels import kernel_dw, kernel_w
 
 INTERIOR = 0
@@ -74,41 +75,11 @@ def position_divergence(x, vol, nbr_start, nbr_j, h, kind, out_divr, out_grad_c,
         out_grad_c[i, 1] = g1
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def correction_matrices(x, vol, nbr_start, nbr_j, h, kind, out_L):
-    """Oger's kernel-gradient correction [F 13-14]: ``out_L[i] = (M_i^-1)^T`` with
-    ``M_i = sum_j V_j (x_j - x_i) (x) grad W_ij``, so that ``sum_j V_j (phi_j - phi_i) L_i
-    grad W_ij`` is exact for linear ``phi``. Identity where ``|det M_i| < DET_MIN``."""
-    for i in prange(out_L.shape[0]):
-        m00 = 0.0
-        m01 = 0.0
-        m10 = 0.0
-        m11 = 0.0
-        for k in range(nbr_start[i], nbr_start[i + 1]):
-            j = nbr_j[k]
-            d0 = x[i, 0] - x[j, 0]
-            d1 = x[i, 1] - x[j, 1]
-            r = math.sqrt(d0 * d0 + d1 * d1)
-            if r < 1e-12 * h:
-                continue
-            dw = kernel_dw(kind, r, h)
-            g0 = dw * d0 / r
-            g1 = dw * d1 / r
-            m00 -= vol[j] * d0 * g0
-            m01 -= vol[j] * d0 * g1
-            m10 -= vol[j] * d1 * g0
-            m11 -= vol[j] * d1 * g1
-        det = m00 * m11 - m01 * m10
-        if abs(det) < DET_MIN:
-            out_L[i, 0, 0] = 1.0
-            out_L[i, 0, 1] = 0.0
-            out_L[i, 1, 0] = 0.0
-            out_L[i, 1, 1] = 1.0
-        else:
-            out_L[i, 0, 0] = m11 / det
-            out_L[i, 0, 1] = -m10 / det
-            out_L[i, 1, 0] = -m01 / det
-            out_L[i, 1, 1] = m00 / det
+    """Oger's correction [F 13-14] (:func:`fsi_sph.sph.operators.correction_matrices`) with
+    the fluid's threshold ``DET_MIN`` (splashed particles fall back to the identity)."""
+    operators.correction_matrices(x, vol, nbr_start, nbr_j, h, kind, DET_MIN, out_L)
 
 
 @njit(cache=True, parallel=True)

@@ -11,6 +11,7 @@ import numpy as np
 from numba import njit, prange
 
 from fsi_sph.solid.materials import energy_density, pk1
+from fsi_sph.sph import operators
 from fsi_sph.sph.kernels import kernel_dw, kernel_w
 
 DET_MIN = 1e-6  # |det M| below this (relative to a full support) -> no correction
@@ -21,41 +22,21 @@ def reference_gradients(x0, vol, nbr_start, nbr_j, h, kind, out_gw, out_w, out_L
     """Kernel values and gradients in the reference configuration, and Oger's correction.
 
     ``out_gw[k] = grad_i W(X_i - X_j)``, ``out_w[k] = W_ij``, and [F 13-14]
-    ``out_L[i] = (M_i^-1)^T`` with ``M_i = sum_j V_j (X_j - X_i) (x) grad W_ij``, so that
-    ``L_i grad W_ij`` reproduces the gradient of linear fields exactly. Where ``M_i`` is
-    near-singular (``|det M| < DET_MIN``) ``L_i`` is the identity.
+    ``out_L[i] = (M_i^-1)^T`` with ``M_i = sum_j V_j (X_j - X_i) (x) grad W_ij``
+    (:func:`fsi_sph.sph.operators.correction_matrices`), identity where
+    ``|det M| < DET_MIN``.
     """
     for i in prange(x0.shape[0]):
-        m00 = 0.0
-        m01 = 0.0
-        m10 = 0.0
-        m11 = 0.0
         for k in range(nbr_start[i], nbr_start[i + 1]):
             j = nbr_j[k]
             d0 = x0[i, 0] - x0[j, 0]
             d1 = x0[i, 1] - x0[j, 1]
             r = math.sqrt(d0 * d0 + d1 * d1)
             dw = kernel_dw(kind, r, h)
-            g0 = dw * d0 / r
-            g1 = dw * d1 / r
-            out_gw[k, 0] = g0
-            out_gw[k, 1] = g1
+            out_gw[k, 0] = dw * d0 / r
+            out_gw[k, 1] = dw * d1 / r
             out_w[k] = kernel_w(kind, r, h)
-            m00 -= vol[j] * d0 * g0
-            m01 -= vol[j] * d0 * g1
-            m10 -= vol[j] * d1 * g0
-            m11 -= vol[j] * d1 * g1
-        det = m00 * m11 - m01 * m10
-        if abs(det) < DET_MIN:
-            out_L[i, 0, 0] = 1.0
-            out_L[i, 0, 1] = 0.0
-            out_L[i, 1, 0] = 0.0
-            out_L[i, 1, 1] = 1.0
-        else:  # (M^-1)^T
-            out_L[i, 0, 0] = m11 / det
-            out_L[i, 0, 1] = -m10 / det
-            out_L[i, 1, 0] = -m01 / det
-            out_L[i, 1, 1] = m00 / det
+    operators.correction_matrices(x0, vol, nbr_start, nbr_j, h, kind, DET_MIN, out_L)
 
 
 @njit(cache=True, parallel=True)
