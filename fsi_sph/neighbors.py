@@ -7,7 +7,7 @@ For destination points ``xd`` and source points ``xs`` the result is
 """
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 
 @njit(cache=True)
@@ -32,31 +32,56 @@ def _build_cells(xs, lo, cell, ncx, ncy):
 
 
 @njit(cache=True)
-def _count_or_fill(xd, xs, lo, cell, ncx, ncy, cstart, citems, r2max, exclude_self,
-                   out_count, out_start, out_j, fill):
-    for i in range(xd.shape[0]):
+def _scan_row(i, xd, xs, lo, cell, ncx, ncy, cstart, citems, r2max, exclude_self, out_j, at):
+    """Neighbours of destination ``i``: counted, and written to ``out_j[at:]`` if ``at >= 0``."""
+    cx = int((xd[i, 0] - lo[0]) / cell)
+    cy = int((xd[i, 1] - lo[1]) / cell)
+    k = 0
+    for ax in range(max(cx - 1, 0), min(cx + 2, ncx)):
+        for ay in range(max(cy - 1, 0), min(cy + 2, ncy)):
+            c = ax * ncy + ay
+            for s in range(cstart[c], cstart[c + 1]):
+                j = citems[s]
+                if exclude_self and j == i:
+                    continue
+                dx0 = xd[i, 0] - xs[j, 0]
+                dx1 = xd[i, 1] - xs[j, 1]
+                if dx0 * dx0 + dx1 * dx1 < r2max:
+                    if at >= 0:
+                        out_j[at + k] = j
+                    k += 1
+    return k
+
+
+@njit(cache=True, parallel=True)
+def _candidates(xd, lo, cell, ncx, ncy, cstart, out_count):
+    """Upper bound of each destination's neighbour count: the sources in its 3 x 3 cells."""
+    for i in prange(xd.shape[0]):
         cx = int((xd[i, 0] - lo[0]) / cell)
         cy = int((xd[i, 1] - lo[1]) / cell)
         k = 0
-        for ax in range(cx - 1, cx + 2):
-            if ax < 0 or ax >= ncx:
-                continue
-            for ay in range(cy - 1, cy + 2):
-                if ay < 0 or ay >= ncy:
-                    continue
-                c = ax * ncy + ay
-                for s in range(cstart[c], cstart[c + 1]):
-                    j = citems[s]
-                    if exclude_self and j == i:
-                        continue
-                    dx0 = xd[i, 0] - xs[j, 0]
-                    dx1 = xd[i, 1] - xs[j, 1]
-                    if dx0 * dx0 + dx1 * dx1 < r2max:
-                        if fill:
-                            out_j[out_start[i] + k] = j
-                        k += 1
-        if not fill:
-            out_count[i] = k
+        for ax in range(max(cx - 1, 0), min(cx + 2, ncx)):
+            c0 = ax * ncy + max(cy - 1, 0)
+            c1 = ax * ncy + min(cy + 2, ncy)
+            k += cstart[c1] - cstart[c0]
+        out_count[i] = k
+
+
+@njit(cache=True, parallel=True)
+def _fill(xd, xs, lo, cell, ncx, ncy, cstart, citems, r2max, exclude_self, slot_start, slots,
+          out_count):
+    """Neighbours of every destination written to its slots; their number to out_count."""
+    for i in prange(xd.shape[0]):
+        out_count[i] = _scan_row(i, xd, xs, lo, cell, ncx, ncy, cstart, citems, r2max,
+                                 exclude_self, slots, slot_start[i])
+
+
+@njit(cache=True, parallel=True)
+def _compact(slot_start, slots, start, out_j):
+    for i in prange(start.shape[0] - 1):
+        a = slot_start[i]
+        for k in range(start[i + 1] - start[i]):
+            out_j[start[i] + k] = slots[a + k]
 
 
 def find_neighbors(xd, xs, radius, exclude_self=False):
@@ -84,16 +109,19 @@ def find_neighbors(xd, xs, radius, exclude_self=False):
     ncx = max(int((hi[0] - lo[0]) / radius) + 1, 1)
     ncy = max(int((hi[1] - lo[1]) / radius) + 1, 1)
     cstart, citems = _build_cells(xs, lo, radius, ncx, ncy)
-    count = np.zeros(nd, dtype=np.int64)
+    # one pass: each row writes into slots sized by its candidate count, then compaction
+    cand = np.empty(nd, dtype=np.int64)
+    _candidates(xd, lo, radius, ncx, ncy, cstart, cand)
+    slot_start = np.zeros(nd + 1, dtype=np.int64)
+    np.cumsum(cand, out=slot_start[1:])
+    slots = np.empty(slot_start[-1], dtype=np.int64)
+    count = np.empty(nd, dtype=np.int64)
+    _fill(xd, xs, lo, radius, ncx, ncy, cstart, citems, radius * radius, exclude_self,
+          slot_start, slots, count)
     start = np.zeros(nd + 1, dtype=np.int64)
-    dummy = np.zeros(0, dtype=np.int64)
-    r2 = radius * radius
-    _count_or_fill(xd, xs, lo, radius, ncx, ncy, cstart, citems, r2, exclude_self,
-                   count, start, dummy, False)
     np.cumsum(count, out=start[1:])
     nbr_j = np.empty(start[-1], dtype=np.int64)
-    _count_or_fill(xd, xs, lo, radius, ncx, ncy, cstart, citems, r2, exclude_self,
-                   count, start, nbr_j, True)
+    _compact(slot_start, slots, start, nbr_j)
     return start, nbr_j
 
 
