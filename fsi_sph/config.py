@@ -353,6 +353,8 @@ class FluidSection(_Model):
     cfl: Annotated[float, Field(gt=0.0, le=0.5)] = Field(
         0.2, description="advective limit dt = cfl h / |u|max [F 48]")
     dt_max: Positive = Field(1.0, description="upper bound on the fluid time step (s)")
+    initial_velocity: Vec2 = Field(
+        (0.0, 0.0), description="velocity of every fluid particle at t = 0 (m/s)")
 
 
 class WallsSection(_Model):

@@ -98,7 +98,8 @@ class IncompressibleFluid:
         self.nu0 = cfg.material.nu
         self.gravity = np.asarray(gravity, dtype=np.float64)
         x = fill_shapes(cfg.blocks, dx)
-        self.walls = Walls(walls_cfg, dx) if walls_cfg is not None else None
+        self.walls = (Walls(walls_cfg, dx, [st.body["x"] for st in structures])
+                      if walls_cfg is not None else None)
         if self.walls is not None:  # fluid particles on a wall site are dropped
             near_start, _ = find_neighbors(x, self.walls.body["x"], 0.5 * dx)
             x = x[np.diff(near_start) == 0]
@@ -114,6 +115,7 @@ class IncompressibleFluid:
         b["vol"][:] = dx * dx
         b["m"][:] = self.rho * dx * dx
         b["nu"][:] = self.nu0
+        b["v"][:] = cfg.initial_velocity
         self.nf = b.n
         # boundary particles: the fixed walls, then the particles of the coupled structures
         # (moving boundaries, PHYSICS.md §5); the loops see them all as "wall" rows

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from fsi_sph.geometry import fill_rectangle, fill_shapes
+from fsi_sph.neighbors import find_neighbors
 from fsi_sph.particles import Body, FieldSpec
 
 
@@ -44,8 +45,12 @@ class Walls:
 
     fields = (FieldSpec("x", (2,)), FieldSpec("v", (2,)), FieldSpec("vol"), FieldSpec("p"))
 
-    def __init__(self, cfg, dx):
+    def __init__(self, cfg, dx, structures_x=()):
         x = wall_particles(cfg, dx)
+        for xs in structures_x:  # a structure's particles (e.g. a clamped root set into the
+            # floor) take the place of the wall particles on their sites
+            near_start, _ = find_neighbors(x, xs, 0.5 * dx)
+            x = x[np.diff(near_start) == 0]
         self.body = b = Body("walls", "wall", len(x))
         b.allocate(self.fields)
         b["x"][:] = x

@@ -41,3 +41,17 @@ def test_row_classification(tmp_path):
     assert "left the domain" in recs["stops"]["values"]["cause"]
     assert recs["fails"]["values"]["status"] == "failed"
     assert "tip displacement" in recs["fails"]["values"]["cause"]
+
+
+def test_fluid_inside_counts_only_particles_between_body_centres():
+    dx = 0.01
+    X = np.array([[i * dx, j * dx] for i in range(2) for j in range(4)])  # 2 x 4 lattice
+    quads = stability.lattice_quads(X, dx)
+    assert len(quads) == 3
+    # the body bent: shear the lattice; a fluid particle between the two columns is inside
+    x = X + np.column_stack([0.5 * X[:, 1], np.zeros(len(X))])
+    fluid = np.array([[0.5 * dx + 0.5 * 1.5 * dx, 1.5 * dx],   # between the columns
+                      [-0.3 * dx, 1.5 * dx],                     # beside the body, close
+                      [0.5 * dx, 5.0 * dx]])                     # far away
+    assert stability.fluid_inside(fluid, x, quads) == 1
+    assert stability.fluid_inside(fluid[1:], x, quads) == 0

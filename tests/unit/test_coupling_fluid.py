@@ -170,3 +170,29 @@ def test_coupled_restart_is_bit_identical(tmp_path):
     t2, a2 = read_probe(part, "tip")
     np.testing.assert_array_equal(t1, t2)
     np.testing.assert_array_equal(a1["ux"], a2["ux"])
+
+
+def test_structure_root_replaces_the_floor_walls(tmp_path):
+    """A coupled structure whose clamped root is set into the floor takes the place of the
+    wall particles on its sites; the floor elsewhere keeps its layers."""
+    text = CASE.replace('blocks = [{ origin = [0.1, 0.1], size = [0.1, 0.1] }]',
+                        'blocks = [{ origin = [0.1, -0.03], size = [0.02, 0.13] }]\n'
+                        'clamp = [{ origin = [0.1, -0.03], size = [0.02, 0.03] }]')
+    p = tmp_path / "root.toml"
+    p.write_text(text)
+    sim = Simulation(load_config(p))
+    xw = sim.fluid.walls.body["x"]
+    xs = sim.structures["block"].body["x"]
+    d = np.min(np.hypot(xw[:, None, 0] - xs[None, :, 0], xw[:, None, 1] - xs[None, :, 1]),
+               axis=1)
+    assert d.min() > 0.5 * 0.01
+    floor_under_root = (xw[:, 1] < 0) & (xw[:, 0] > 0.1) & (xw[:, 0] < 0.12)
+    assert not floor_under_root.any()
+    assert np.sum((xw[:, 1] < 0) & (xw[:, 0] > 0.2) & (xw[:, 0] < 0.22)) == 2 * 3
+
+
+def test_fluid_initial_velocity(tmp_path):
+    p = tmp_path / "v.toml"
+    p.write_text(CASE.replace('dt_max = 1.0e-3', 'dt_max = 1.0e-3\ninitial_velocity = [1.5, -0.5]'))
+    sim = Simulation(load_config(p))
+    assert np.all(sim.fluid.body["v"] == [1.5, -0.5])
