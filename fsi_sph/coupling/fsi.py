@@ -125,9 +125,11 @@ class FsiCoupling:
         return self.on_fluid
 
     def advance(self, dt):
-        """Sub-cycle every coupled structure over ``dt`` with its interface force held."""
+        """Sub-cycle every coupled structure over ``dt`` with its interface force held (plus
+        the reaction of the fluid's kinematic guard at the structure surfaces, if it acted)."""
+        force = self.on_structure + self.fluid.guard_force
         for b, sl in zip(self.bodies, self.slices, strict=True):
-            b.body["f_ext"][:] = self.on_structure[sl]
+            b.body["f_ext"][:] = force[sl]
             v0 = b.body["v"].copy()
             n = substep_count(dt, b.stable_dt(), self.cfg.substeps)
             self.v_bar[sl] = advance_structure(b, dt, n)
@@ -135,6 +137,6 @@ class FsiCoupling:
             b.body["v_bar"][:] = self.v_bar[sl]
             b.body["a_bar"][:] = self.a_bar[sl]
             self.n_sub[b.name] = n
-        self.power_structure = interface_power(self.on_structure, self.v_bar)
+        self.power_structure = interface_power(force, self.v_bar)
         self.power_fluid = interface_power(self.on_fluid, self.fluid.body["v"])
         return self.n_sub

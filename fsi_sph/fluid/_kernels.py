@@ -517,18 +517,19 @@ def wall_normals(xw, vol, nbr_start, nbr_j, h, kind, out_n):
 
 
 @njit(cache=True, parallel=True)
-def no_penetration(x, nbr_start, nbr_j, nf, wall_n, gap, v_old, v):
+def no_penetration(x, nbr_start, nbr_j, nf, wall_n, gap, v_old, v, jmax):
     """Kinematic wall guard: a fluid particle closer than ``gap`` (along the wall normal) to
-    its nearest wall particle loses the velocity components (of ``v_old`` and ``v``) that
-    point into the wall. A free-surface particle has a Dirichlet PPE row, which imposes no
-    continuity constraint, so nothing else stops a thin jet from sinking into the floor;
-    elsewhere the wall pressure keeps the particles away and this does nothing."""
+    its nearest wall particle (sources ``nf <= j < jmax``) loses the velocity components (of
+    ``v_old`` and ``v``) that point into the wall. A free-surface particle has a Dirichlet PPE
+    row, which imposes no continuity constraint, so nothing else stops a thin jet from sinking
+    into the floor; elsewhere the wall pressure keeps the particles away and this does
+    nothing."""
     for i in prange(nf):
         best = 1e300
         jb = -1
         for k in range(nbr_start[i], nbr_start[i + 1]):
             j = nbr_j[k]
-            if j < nf:
+            if j < nf or j >= jmax:
                 continue
             d0 = x[i, 0] - x[j, 0]
             d1 = x[i, 1] - x[j, 1]
@@ -550,6 +551,51 @@ def no_penetration(x, nbr_start, nbr_j, nf, wall_n, gap, v_old, v):
             if un < 0.0:
                 v_old[i, 0] -= un * n0
                 v_old[i, 1] -= un * n1
+
+
+@njit(cache=True, parallel=True)
+def structure_guard(x, nbr_start, nbr_j, nf, j0, normals, v_b, gap, v_old, v, out_dv, out_row):
+    """Kinematic guard at moving structure boundaries (sources ``j >= j0``; ``normals`` and
+    boundary velocities ``v_b`` indexed from ``j0``): a fluid particle closer than ``gap``
+    (along the normal) to its nearest structure particle loses the part of its velocity
+    relative to that particle which points into the structure. The velocity change of ``v``
+    and the row of the structure particle go to ``out_dv`` and ``out_row`` (-1: none) so that
+    the caller can give the structure the opposite impulse (action equals reaction)."""
+    for i in prange(nf):
+        out_dv[i, 0] = 0.0
+        out_dv[i, 1] = 0.0
+        out_row[i] = -1
+        best = 1e300
+        jb = -1
+        for k in range(nbr_start[i], nbr_start[i + 1]):
+            j = nbr_j[k]
+            if j < j0:
+                continue
+            d0 = x[i, 0] - x[j, 0]
+            d1 = x[i, 1] - x[j, 1]
+            r2 = d0 * d0 + d1 * d1
+            if r2 < best:
+                best = r2
+                jb = j
+        if jb < 0:
+            continue
+        b = jb - j0
+        n0 = normals[b, 0]
+        n1 = normals[b, 1]
+        dn = (x[i, 0] - x[jb, 0]) * n0 + (x[i, 1] - x[jb, 1]) * n1
+        if (n0 == 0.0 and n1 == 0.0) or dn >= gap:
+            continue
+        un = (v[i, 0] - v_b[b, 0]) * n0 + (v[i, 1] - v_b[b, 1]) * n1
+        if un < 0.0:
+            out_dv[i, 0] = -un * n0
+            out_dv[i, 1] = -un * n1
+            v[i, 0] -= un * n0
+            v[i, 1] -= un * n1
+            out_row[i] = b
+        un = (v_old[i, 0] - v_b[b, 0]) * n0 + (v_old[i, 1] - v_b[b, 1]) * n1
+        if un < 0.0:
+            v_old[i, 0] -= un * n0
+            v_old[i, 1] -= un * n1
 
 
 @njit(cache=True)

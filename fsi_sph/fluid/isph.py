@@ -136,12 +136,12 @@ class IncompressibleFluid:
         self.nu_all = np.full(n, self.nu0)
         self.p_all = np.zeros(n)
         self.wall_n = np.zeros((self.nw, 2))
+        self.guard_force = np.zeros((self.ns, 2))
         if self.walls is not None:
             xw = self.walls.body["x"]
             self.x_all[self.nf:self.nf + self.n_walls] = xw
             ws, wj = find_neighbors(xw, xw, SUPPORT * self.h, exclude_self=True)
-            # normals of the fixed walls only; structure rows keep a zero normal, so the
-            # kinematic wall guard never acts on them (the interface force stays exact)
+            # normals of the fixed walls; the structures' are set with their positions
             K.wall_normals(xw, self.walls.body["vol"], ws, wj, self.h, self.kernel, self.wall_n)
         self.set_structures(np.zeros((self.ns, 2)), np.zeros((self.ns, 2)))
         self.grad_scale, self.lap_scale, self.diag_ref = lattice_scales(dx, self.h, self.kernel)
@@ -170,7 +170,12 @@ class IncompressibleFluid:
             return
         k = self.nf + self.n_walls
         for s in self.structures:
-            self.x_all[k:k + s.body.n] = s.body["x"]
+            xs = s.body["x"]
+            self.x_all[k:k + s.body.n] = xs
+            # outward surface normals of the structure over its own particles (zero inside)
+            ss, sj = find_neighbors(xs, xs, SUPPORT * self.h, exclude_self=True)
+            K.wall_normals(xs, self.vol_all[k:k + s.body.n], ss, sj, self.h, self.kernel,
+                           self.wall_n[k - self.nf:k - self.nf + s.body.n])
             k += s.body.n
         self.v_b[self.n_walls:] = v_bar
         self.v_all[self.nf + self.n_walls:] = v_bar
@@ -357,10 +362,29 @@ class IncompressibleFluid:
         if interface_force is not None:
             v += (dt / b["m"])[:, None] * interface_force
         b["a"][:] = (v - self.v_old) / dt
-        if self.nw:
+        if self.n_walls:
             K.no_penetration(self.x_all, self.ff_start, self.ff_j, self.nf, self.wall_n,
-                             0.5 * self.dx, self.v_old, v)
+                             0.5 * self.dx, self.v_old, v, jmax)
+        if self.ns:
+            self._structure_guard(dt, v)
         b["x"] += 0.5 * dt * (self.v_old + v)
+
+    def _structure_guard(self, dt, v):
+        """The kinematic guard at the coupled structures' surfaces (a free-surface fluid
+        particle has a Dirichlet PPE row, so no pressure stops it from running into a
+        structure); the fluid's momentum change goes to the structure particles as
+        ``self.guard_force`` (N/m per structure particle), opposite and equal."""
+        j0 = self.nf + self.n_walls
+        dv = np.empty((self.nf, 2))
+        row = np.empty(self.nf, dtype=np.int64)
+        K.structure_guard(self.x_all, self.ff_start, self.ff_j, self.nf, j0,
+                          self.wall_n[self.n_walls:], self.v_b[self.n_walls:], 0.5 * self.dx,
+                          self.v_old, v, dv, row)
+        self.guard_force[:] = 0.0
+        hit = row >= 0
+        if hit.any():
+            np.add.at(self.guard_force, row[hit],
+                      -(self.body["m"][hit] / dt)[:, None] * dv[hit])
 
     # ------------------------------------------------------------------ diagnostics
     def kinetic_energy(self):
@@ -448,7 +472,9 @@ def warm_up(kind):
         K.shift_vectors(x, v, vol, start, j, n, h, kind, model, 1.0, 0.0, 0.1, cls, nrm, dr)
     K.apply_shift(dr, gp, gv, True, x, p, v)
     K.wall_normals(x, vol, start, j, h, kind, nrm)
-    K.no_penetration(x, start, j, n, nrm, 0.5, v, vs)
+    K.no_penetration(x, start, j, n, nrm, 0.5, v, vs, n)
+    K.structure_guard(x, start, j, n, n, nrm, nrm, 0.5, v, vs, np.zeros((n, 2)),
+                      np.zeros(n, dtype=np.int64))
     out = np.zeros(1)
     s1, j1 = find_neighbors(x[:1], x, 2 * h)
     K.shepard_at(x[:1], x, p, s1, j1, h, kind, out)

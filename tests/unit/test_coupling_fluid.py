@@ -196,3 +196,53 @@ def test_fluid_initial_velocity(tmp_path):
     p.write_text(CASE.replace('dt_max = 1.0e-3', 'dt_max = 1.0e-3\ninitial_velocity = [1.5, -0.5]'))
     sim = Simulation(load_config(p))
     assert np.all(sim.fluid.body["v"] == [1.5, -0.5])
+
+
+def test_structure_guard_removes_relative_inflow_kernel():
+    """One fluid particle 0.3 dx above a flat structure surface (normal +y) moving into it:
+    its velocity relative to the surface loses the inward normal part; the change and the
+    structure row are reported for the reaction."""
+    from fsi_sph.fluid import _kernels as K
+    from fsi_sph.neighbors import find_neighbors
+
+    dx = 0.01
+    xs = np.array([[k * dx, 0.0] for k in range(-2, 3)])
+    x = np.vstack([[[0.001, 0.3 * dx]], xs])
+    start, j = find_neighbors(x[:1], x, 2.4 * dx)
+    normals = np.tile([0.0, 1.0], (5, 1))
+    v_b = np.tile([0.0, -0.5], (5, 1))
+    v = np.array([[1.0, -2.0]])
+    v_old = v.copy()
+    dv = np.zeros((1, 2))
+    row = np.zeros(1, dtype=np.int64)
+    K.structure_guard(x, start, j, 1, 1, normals, v_b, 0.5 * dx, v_old, v, dv, row)
+    assert np.allclose(v, [[1.0, -0.5]]) and np.allclose(v_old, [[1.0, -0.5]])
+    assert np.allclose(dv, [[0.0, 1.5]]) and row[0] == 2  # the particle right below
+    # moving away from the surface (relative): untouched
+    v = np.array([[0.0, -0.4]])
+    K.structure_guard(x, start, j, 1, 1, normals, v_b, 0.5 * dx, v.copy(), v, dv, row)
+    assert np.allclose(v, [[0.0, -0.4]]) and row[0] == -1
+
+
+def test_structure_guard_gives_the_structure_the_opposite_impulse(tmp_path):
+    sim = _scene(tmp_path)
+    fluid = sim.fluid
+    sim.step()
+    dt = 1e-3
+    x = fluid.body["x"]
+    # fluid right above the block's top face, pushed down into it
+    near = (np.abs(x[:, 1] - 0.205) < 0.006) & (x[:, 0] > 0.1) & (x[:, 0] < 0.2)
+    assert near.sum() >= 5
+    x[near, 1] = 0.1985  # 0.35 dx from the block's surface particles: inside the guard gap
+    fluid._sync()
+    v = np.zeros((fluid.nf, 2))
+    v[near] = [0.3, -1.0]
+    fluid.v_old[:] = v
+    before = v.copy()
+    fluid._structure_guard(dt, v)
+    m = fluid.body["m"][:, None]
+    assert np.all(v[near, 1] > -1.0)  # the inflow was cut
+    fluid_impulse = np.sum(m * (v - before), axis=0)
+    structure_impulse = dt * fluid.guard_force.sum(axis=0)
+    assert np.abs(fluid_impulse).max() > 0
+    assert np.allclose(fluid_impulse + structure_impulse, 0.0, atol=1e-14)
