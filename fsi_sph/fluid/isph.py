@@ -26,7 +26,7 @@ import math
 import numpy as np
 
 from fsi_sph.fluid import _kernels as K
-from fsi_sph.fluid import free_surface
+from fsi_sph.fluid import amg, free_surface
 from fsi_sph.fluid.ppe import PPEStats, PressureSolver, assemble
 from fsi_sph.fluid.shifting import Shifting
 from fsi_sph.fluid.walls import Walls
@@ -329,7 +329,7 @@ class IncompressibleFluid:
                           self.eta2, self.lap_scale, self.diag_ref, self.rho, self.g_b,
                           self.implicit)
         t1 = time.perf_counter()
-        p, stats = self.ppe.solve(A, rhs, self.p_all)
+        p, stats = self.ppe.solve(A, rhs, self.p_all, self.nf)
         stats.assemble_time = t1 - t0
         self.p_all[:] = p
         b["p"][:] = p[:self.nf]
@@ -475,6 +475,7 @@ def warm_up(kind):
     K.no_penetration(x, start, j, n, nrm, 0.5, v, vs, n)
     K.structure_guard(x, start, j, n, n, nrm, nrm, 0.5, v, vs, np.zeros((n, 2)),
                       np.zeros(n, dtype=np.int64))
+    amg.warm_up()
     out = np.zeros(1)
     s1, j1 = find_neighbors(x[:1], x, 2 * h)
     K.shepard_at(x[:1], x, p, s1, j1, h, kind, out)
