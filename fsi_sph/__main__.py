@@ -59,6 +59,9 @@ def _parser():
     v.add_argument("--all", action="store_true",
                    help="run every validation and write validation/REPORT.md")
     v.add_argument("--quick", action="store_true", help="only the coarse end of the ladder")
+    v.add_argument("--report", action="store_true",
+                   help="only rewrite validation/REPORT.md from the stored results "
+                   "(validation/results/*/result.json), running nothing")
     v.add_argument("--json", dest="json_file", help="write the validation record here")
     v.add_argument("--data", default=str(REPO.parent / "shared" / "validation_data"),
                    help="folder of reference data (default: ../shared/validation_data)")
@@ -175,6 +178,18 @@ def _load_validation(name):
 
 def cmd_validate(args):
     names = available_validations()
+    if args.report:
+        report = _load_validation("report")
+        results_root = Path(args.out) if args.out else VALIDATION_DIR / "results"
+        results = report.load_results(results_root)
+        if not results:
+            raise UsageError(f"validate --report: no results in {results_root}/*/result.json; "
+                             "run `fsi-sph validate --all [--quick]` first")
+        missing = sorted(set(names) - set(results) - {"report"})
+        path = report.write_report(results, missing=missing)
+        log.info("wrote %s from %d stored results%s", path, len(results),
+                 f" (no results yet: {', '.join(missing)})" if missing else "")
+        return 0
     if args.all == bool(args.name):
         raise UsageError("validate: give one validation NAME or --all; available: "
                          f"{', '.join(names) or 'none (validation/ folder not found)'}")

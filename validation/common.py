@@ -33,9 +33,14 @@ def machine() -> dict:
 
     from fsi_sph.output import git_sha, versions
 
+    import datetime
+
     return {"platform": platform.platform(), "processor": platform.processor() or "unknown",
             "cpus": os.cpu_count(), "numba_threads": numba.get_num_threads(),
-            "git_sha": git_sha(), "versions": versions()}
+            "git_sha": git_sha(), "versions": versions(),
+            # other work on the machine inflates wall times: say how busy it was
+            "load_average_1min": os.getloadavg()[0],
+            "date": datetime.datetime.now().isoformat(timespec="minutes")}
 
 
 def run_case(case, overrides=(), out_dir=None, max_steps=None, progress=False):

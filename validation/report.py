@@ -25,7 +25,7 @@ def load_results(results_dir) -> dict:
 
 
 def write_report(results: dict, path=HERE / "REPORT.md", fig_dir=HERE / "report",
-                 failures=None) -> Path:
+                 failures=None, missing=()) -> Path:
     """Write the report and one PNG per case into ``fig_dir``; returns the report path."""
     from fsi_sph.plotting import error_vs_time
 
@@ -36,7 +36,8 @@ def write_report(results: dict, path=HERE / "REPORT.md", fig_dir=HERE / "report"
              "`fsi-sph validate --all` (regenerate with the same command; `--quick` runs the "
              "coarse end of each ladder). Errors are signed percentages unless the name says "
              "otherwise; wall time is the whole run (set-up + stepping); throughput is "
-             "particle-steps per second of the stepping loop.", ""]
+             "particle-steps per second of the stepping loop. `fsi-sph validate --report` "
+             "rewrites this file from the stored results without running anything.", ""]
     machine = next((r.get("machine") for r in results.values() if r.get("machine")), None)
     if machine:
         v = machine.get("versions", {})
@@ -45,6 +46,13 @@ def write_report(results: dict, path=HERE / "REPORT.md", fig_dir=HERE / "report"
                   + ", ".join(f"{k} {v[k]}" for k in sorted(v)), ""]
     for name, res in results.items():
         lines += [f"## {name}", "", f"Reference: {res['reference']}", ""]
+        m = res.get("machine") or {}
+        if m:
+            lines += [f"Measured {m.get('date', '(date not recorded)')}, git "
+                      f"{m.get('git_sha')}, {m.get('numba_threads')} numba threads, load "
+                      f"average {m.get('load_average_1min', float('nan')):.1f} at the end "
+                      f"({m.get('cpus')} CPUs; a load above the CPU count means the wall "
+                      "times are inflated by other work).", ""]
         if not res["records"]:
             lines += ["(no records)", ""]
             continue
@@ -72,5 +80,8 @@ def write_report(results: dict, path=HERE / "REPORT.md", fig_dir=HERE / "report"
             lines.append("")
     for name, why in (failures or {}).items():
         lines += [f"## {name}", "", f"**Did not run to the end**: {why}", ""]
+    for name in missing:
+        lines += [f"## {name}", "", "**No stored result yet**: run `fsi-sph validate "
+                  f"{name} [--quick]`.", ""]
     path.write_text("\n".join(lines))
     return path

@@ -41,3 +41,27 @@ def test_validate_usage(capsys):
     assert main(["validate"]) == 2
     assert main(["validate", "oscillating_plate", "--all"]) == 2
     assert "available" in capsys.readouterr().err
+
+
+def test_report_only_rewrites_from_stored_results(tmp_path, monkeypatch):
+    import json
+
+    import validation.report as report
+
+    (tmp_path / "demo").mkdir()
+    res = _result()
+    res["machine"]["load_average_1min"] = 3.5
+    (tmp_path / "demo" / "result.json").write_text(json.dumps(res))
+    written = {}
+    real = report.write_report
+
+    def to_tmp(results, **kw):
+        written["path"] = real(results, path=tmp_path / "REPORT.md", fig_dir=tmp_path / "f", **kw)
+        return written["path"]
+
+    monkeypatch.setattr(report, "write_report", to_tmp)
+    assert main(["validate", "--report", "--out", str(tmp_path)]) == 0
+    text = written["path"].read_text()
+    assert "## demo" in text and "load average 3.5" in text
+    assert "No stored result yet" in text  # every other validation is listed as missing
+    assert main(["validate", "--report", "--out", str(tmp_path / "empty")]) == 2
