@@ -29,11 +29,11 @@ CASES = REPO / "cases"
 
 def machine() -> dict:
     """Where the numbers were measured."""
+    import datetime
+
     import numba
 
     from fsi_sph.output import git_sha, versions
-
-    import datetime
 
     return {"platform": platform.platform(), "processor": platform.processor() or "unknown",
             "cpus": os.cpu_count(), "numba_threads": numba.get_num_threads(),
