@@ -140,9 +140,7 @@ class IncompressibleFluid:
         if self.walls is not None:
             xw = self.walls.body["x"]
             self.x_all[self.nf:self.nf + self.n_walls] = xw
-            ws, wj = find_neighbors(xw, xw, SUPPORT * self.h, exclude_self=True)
-            # normals of the fixed walls; the structures' are set with their positions
-            K.wall_normals(xw, self.walls.body["vol"], ws, wj, self.h, self.kernel, self.wall_n)
+            self.wall_n[:self.n_walls] = self._fixed_wall_normals(xw)
         self.set_structures(np.zeros((self.ns, 2)), np.zeros((self.ns, 2)))
         self.grad_scale, self.lap_scale, self.diag_ref = lattice_scales(dx, self.h, self.kernel)
         self.sigma0 = lattice_sigma(dx, self.h, self.kernel)
@@ -160,6 +158,23 @@ class IncompressibleFluid:
     @property
     def n(self):
         return self.nf
+
+    def _fixed_wall_normals(self, xw):
+        """Outward normals of the fixed wall particles over the rigid boundary: the walls and
+        the clamped particles of the coupled structures (which never move). A structure's
+        root set into the floor thus closes the floor: the wall particles beside it keep an
+        upward normal instead of one tilted towards the gap the root fills, through which
+        fluid particles otherwise sank into the seam between wall and root (seen under a
+        clamped plate holding water). The structures' own normals are set each step with
+        their positions."""
+        clamped = [st.body["x"][~st.body["free"]] for st in self.structures
+                   if "free" in st.body]
+        xb = np.vstack([xw, *clamped]) if clamped else xw
+        start, j = find_neighbors(xb, xb, SUPPORT * self.h, exclude_self=True)
+        normals = np.zeros((len(xb), 2))
+        K.wall_normals(xb, np.full(len(xb), self.dx * self.dx), start, j, self.h, self.kernel,
+                       normals)
+        return normals[:len(xw)]
 
     # ------------------------------------------------------------------ coupling
     def set_structures(self, v_bar, a_bar, a_other=None, rho_s=None):

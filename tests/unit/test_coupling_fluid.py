@@ -189,6 +189,12 @@ def test_structure_root_replaces_the_floor_walls(tmp_path):
     floor_under_root = (xw[:, 1] < 0) & (xw[:, 0] > 0.1) & (xw[:, 0] < 0.12)
     assert not floor_under_root.any()
     assert np.sum((xw[:, 1] < 0) & (xw[:, 0] > 0.2) & (xw[:, 0] < 0.22)) == 2 * 3
+    # the clamped root closes the floor: the top floor particles right beside it keep an
+    # upward normal (over the walls alone it would tilt towards the gap the root fills)
+    beside = (np.abs(xw[:, 1] + 0.005) < 1e-9) & (np.abs(xw[:, 0] - 0.095) < 1e-9)
+    assert beside.sum() == 1
+    n = sim.fluid.wall_n[:len(xw)][beside][0]
+    assert np.allclose(n, [0.0, 1.0], atol=1e-9)
 
 
 def test_fluid_initial_velocity(tmp_path):
