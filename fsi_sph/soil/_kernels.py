@@ -62,7 +62,8 @@ def return_map(sxx, syy, sxy, szz, alpha, kc, alpha_psi, G, K):
 
     1. Tension apex (tension cracking, Bui et al. 2008): if the hydrostatic stress lies
        beyond the apex, ``I1 > k_c/alpha``, it is moved back to the apex,
-       ``sigma_ii -= (I1 - k_c/alpha)/3`` (deviatoric part kept).
+       ``sigma_ii -= (I1 - k_c/alpha)/3``, and the deviator is scaled by
+       ``(k_c - alpha I1)/sqrt(J2) = 0``: the stress is the apex, whatever ``psi``.
     2. If ``f > 0``: closed-form radial return of the elastic predictor
        ``dlam = f/(G + 9 K alpha alpha_psi)``, ``s <- s (1 - G dlam/sqrt(J2))``,
        ``I1 <- I1 - 9 K alpha_psi dlam``. For ``psi = 0`` this is exactly the deviatoric
@@ -92,7 +93,14 @@ def return_map(sxx, syy, sxy, szz, alpha, kc, alpha_psi, G, K):
     if f <= 0.0 and not clipped:  # elastic: untouched
         return sxx, syy, sxy, szz, 0.0
     scale = 1.0
-    if f > 0.0:
+    if clipped:
+        # tension cracking (PHYSICS §6, Bui et al. 2008): at the apex the deviator is scaled
+        # by (k_c - alpha I1)/sqrt(J2) = 0. The dilatant return below must not be applied
+        # after the clip: with psi > 0 it would add the compression -9 K alpha_psi dlam to a
+        # particle being pulled apart (a stress that pushes it further apart, which blew up
+        # an associated-flow column collapse); for psi = 0 both give the apex.
+        scale = 0.0
+    elif f > 0.0:
         dlam = f / (G + 9.0 * K * alpha * alpha_psi)
         if G * dlam >= sj2 or sj2 == 0.0:  # return lands beyond the axis -> apex
             scale = 0.0
