@@ -370,6 +370,8 @@ def momentum(n, x, v, rho, m, sigma, R, nbr_start, nbr_j, h, kind, c0, av_alpha,
             d0 = x[i, 0] - x[j, 0]
             d1 = x[i, 1] - x[j, 1]
             r2 = d0 * d0 + d1 * d1
+            if r2 == 0.0:  # coincident pair (e.g. two particles put into a wall corner)
+                continue  # grad W(0) = 0: no force, and no 0/0
             r = math.sqrt(r2)
             dw = kernel_dw(kind, r, h)
             g0 = dw * d0 / r
@@ -433,6 +435,8 @@ def velocity_gradient(n, x, v, vk, rho, m, nbr_start, nbr_j, h, kind, out_L, out
             d0 = x[i, 0] - x[j, 0]
             d1 = x[i, 1] - x[j, 1]
             r = math.sqrt(d0 * d0 + d1 * d1)
+            if r == 0.0:  # coincident pair: grad W(0) = 0
+                continue
             dw = kernel_dw(kind, r, h)
             g0 = dw * d0 / r
             g1 = dw * d1 / r
