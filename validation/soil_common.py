@@ -85,31 +85,34 @@ def deposit_toe(x, dx, y_floor=0.0):
 
 
 def profile_plot(path, title, panels, xlim=None, ylim=None, circle=None, extra=None):
-    """Particles of each panel ``(label, x, colour_values, colour_label)`` over each other,
-    with an optional slip circle ``(xc, yc, R)`` and extra polylines ``[(label, xy), ...]``."""
+    """Particles of each panel ``(label, x, colour_values, colour_label[, lines])`` over each
+    other, with an optional slip circle ``(xc, yc, R)``, extra polylines ``[(label, xy), ...]``
+    on every panel and a panel's own ``lines`` (same form) on it."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(len(panels), 1, figsize=(9, 3.2 * len(panels)), squeeze=False)
-    for ax, (label, x, c, clabel) in zip(axes[:, 0], panels, strict=True):
+    for ax, panel in zip(axes[:, 0], panels, strict=True):
+        label, x, c, clabel = panel[:4]
+        lines = list(extra or []) + list(panel[4] if len(panel) > 4 else [])
         sc = ax.scatter(x[:, 0], x[:, 1], c=c, s=4, cmap="viridis")
         fig.colorbar(sc, ax=ax, label=clabel)
         if circle is not None:
             t = np.linspace(0, 2 * math.pi, 400)
             ax.plot(circle[0] + circle[2] * np.cos(t), circle[1] + circle[2] * np.sin(t), "r-",
                     lw=1.5, label="critical circle (Bishop)")
-        for elabel, xy in extra or []:
+        for k, (elabel, xy) in enumerate(lines):
             xy = np.asarray(xy)
-            ax.plot(xy[:, 0], xy[:, 1], "k--", lw=1.2, label=elabel)
+            ax.plot(xy[:, 0], xy[:, 1], ("k--", "r-.", "m:", "c--")[k % 4], lw=1.2, label=elabel)
         if xlim:
             ax.set_xlim(*xlim)
         if ylim:
             ax.set_ylim(*ylim)
         ax.set_aspect("equal")
         ax.set_title(label, fontsize=9)
-        if circle is not None or extra:
+        if circle is not None or lines:
             ax.legend(fontsize=7, loc="upper right")
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()

@@ -62,7 +62,8 @@ def return_map(sxx, syy, sxy, szz, alpha, kc, alpha_psi, G, K):
 
     1. Tension apex (tension cracking, Bui et al. 2008): if the hydrostatic stress lies
        beyond the apex, ``I1 > k_c/alpha``, it is moved back to the apex,
-       ``sigma_ii -= (I1 - k_c/alpha)/3`` (deviatoric part kept).
+       ``sigma_ii -= (I1 - k_c/alpha)/3``, and the deviator is scaled by
+       ``(k_c - alpha I1)/sqrt(J2) = 0``: the stress is the apex, whatever ``psi``.
     2. If ``f > 0``: closed-form radial return of the elastic predictor
        ``dlam = f/(G + 9 K alpha alpha_psi)``, ``s <- s (1 - G dlam/sqrt(J2))``,
        ``I1 <- I1 - 9 K alpha_psi dlam``. For ``psi = 0`` this is exactly the deviatoric
@@ -92,7 +93,14 @@ def return_map(sxx, syy, sxy, szz, alpha, kc, alpha_psi, G, K):
     if f <= 0.0 and not clipped:  # elastic: untouched
         return sxx, syy, sxy, szz, 0.0
     scale = 1.0
-    if f > 0.0:
+    if clipped:
+        # tension cracking (PHYSICS §6, Bui et al. 2008): at the apex the deviator is scaled
+        # by (k_c - alpha I1)/sqrt(J2) = 0. The dilatant return below must not be applied
+        # after the clip: with psi > 0 it would add the compression -9 K alpha_psi dlam to a
+        # particle being pulled apart (a stress that pushes it further apart, which blew up
+        # an associated-flow column collapse); for psi = 0 both give the apex.
+        scale = 0.0
+    elif f > 0.0:
         dlam = f / (G + 9.0 * K * alpha * alpha_psi)
         if G * dlam >= sj2 or sj2 == 0.0:  # return lands beyond the axis -> apex
             scale = 0.0
@@ -200,9 +208,13 @@ def _mirror_state(side, fric, mu_w, v0, v1, sxx, syy, sxy):
 
 @njit(cache=True)
 def fill_ghosts(n, ng, src, wa, wb, wall_side, wall_fric, wall_mu, g0, g1, x, v, sigma, szz,
-                rho, m):
+                rho, m, vk):
     """Copy the state of each ghost's source into rows ``n .. n+ng`` of the combined arrays
     ``v, sigma, szz, rho, m`` and mirror velocity and stress across its wall(s).
+
+    ``vk`` receives the ghost's kinematic velocity, the velocity of the mirror image itself
+    (normal component reversed, tangential kept, whatever the wall's friction): the
+    continuity uses it (see :func:`velocity_gradient`).
 
     The wall-normal stress is extrapolated with the body force, as Adami et al. (2012) do for
     the wall pressure: ``sigma_nn,ghost = sigma_nn,i - rho_i g . (x_ghost - x_i)`` (from
@@ -235,6 +247,16 @@ def fill_ghosts(n, ng, src, wa, wb, wall_side, wall_fric, wall_mu, g0, g1, x, v,
                 sxx += dgx
         v[row, 0] = v0
         v[row, 1] = v1
+        k0, k1 = v[i, 0], v[i, 1]
+        for w in (a, b):
+            if w < 0:
+                continue
+            if wall_side[w] == BOTTOM or wall_side[w] == TOP:
+                k1 = -k1
+            else:
+                k0 = -k0
+        vk[row, 0] = k0
+        vk[row, 1] = k1
         sigma[row, 0, 0] = sxx
         sigma[row, 1, 1] = syy
         sigma[row, 0, 1] = sxy
@@ -348,6 +370,8 @@ def momentum(n, x, v, rho, m, sigma, R, nbr_start, nbr_j, h, kind, c0, av_alpha,
             d0 = x[i, 0] - x[j, 0]
             d1 = x[i, 1] - x[j, 1]
             r2 = d0 * d0 + d1 * d1
+            if r2 == 0.0:  # coincident pair (e.g. two particles put into a wall corner)
+                continue  # grad W(0) = 0: no force, and no 0/0
             r = math.sqrt(r2)
             dw = kernel_dw(kind, r, h)
             g0 = dw * d0 / r
@@ -382,13 +406,19 @@ def momentum(n, x, v, rho, m, sigma, R, nbr_start, nbr_j, h, kind, c0, av_alpha,
 
 
 @njit(cache=True)
-def velocity_gradient(n, x, v, rho, m, nbr_start, nbr_j, h, kind, out_L, out_drho):
+def velocity_gradient(n, x, v, vk, rho, m, nbr_start, nbr_j, h, kind, out_L, out_drho):
     """Velocity gradient and continuity for soil particles ``i < n``.
 
     ``out_L[i][a, b] = dv_a/dx_b = (sum_j V_j (v_j - v_i)_a grad_b W_ij) . M_i^-1`` with the
     correction ``M_i = sum_j V_j (x_j - x_i) (x) grad W_ij`` [F 13-14] (exact for linear
     velocity fields; identity where ``|det M| < DET_MIN``), ``V_j = m_j/rho_j``.
-    Continuity [S 4-5]: ``out_drho[i] = sum_j m_j (v_i - v_j) . grad_i W_ij``.
+    Continuity [S 4-5]: ``out_drho[i] = sum_j m_j (vk_i - vk_j) . grad_i W_ij`` with ``vk`` the
+    kinematic velocity (``vk = v`` for soil rows; for ghosts the velocity of the mirror image,
+    :func:`fill_ghosts`), so that the density follows the actual motion of the mirrored
+    configuration. A no-slip ghost's reversed tangential velocity (the device of Morris et al.
+    1997, [S 4-72], for the shear rate at the wall, kept in ``L``) is not a motion: in the
+    continuity it made a spurious divergence wherever the neighbourhood is one-sided (a front
+    sliding on the floor), and the density drifted to negative values.
     """
     for i in range(n):
         l00 = 0.0
@@ -405,6 +435,8 @@ def velocity_gradient(n, x, v, rho, m, nbr_start, nbr_j, h, kind, out_L, out_drh
             d0 = x[i, 0] - x[j, 0]
             d1 = x[i, 1] - x[j, 1]
             r = math.sqrt(d0 * d0 + d1 * d1)
+            if r == 0.0:  # coincident pair: grad W(0) = 0
+                continue
             dw = kernel_dw(kind, r, h)
             g0 = dw * d0 / r
             g1 = dw * d1 / r
@@ -419,7 +451,7 @@ def velocity_gradient(n, x, v, rho, m, nbr_start, nbr_j, h, kind, out_L, out_drh
             m01 -= vol * d0 * g1
             m10 -= vol * d1 * g0
             m11 -= vol * d1 * g1
-            drho -= m[j] * (u0 * g0 + u1 * g1)
+            drho -= m[j] * ((vk[j, 0] - vk[i, 0]) * g0 + (vk[j, 1] - vk[i, 1]) * g1)
         det = m00 * m11 - m01 * m10
         if abs(det) < DET_MIN:
             out_L[i, 0, 0] = l00

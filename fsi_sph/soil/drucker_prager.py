@@ -128,6 +128,7 @@ class DruckerPragerBody:
         self.cap = cap
         self.xa = np.zeros((tot, 2))
         self.va = np.zeros((tot, 2))
+        self.vka = np.zeros((tot, 2))  # kinematic velocity (continuity), see fill_ghosts
         self.sa = np.zeros((tot, 2, 2))
         self.za = np.zeros(tot)
         self.ra = np.ones(tot)
@@ -175,6 +176,7 @@ class DruckerPragerBody:
         b = self.body
         n = b.n
         self.va[:n] = b["v"]
+        self.vka[:n] = b["v"]
         self.sa[:n] = b["sigma"]
         self.za[:n] = b["szz"]
         self.ra[:n] = b["rho"]
@@ -182,7 +184,7 @@ class DruckerPragerBody:
         side, pos, fric, mu = self.walls
         g = self.gravity
         K.fill_ghosts(n, self.ng, self.src, self.wa, self.wb, side, fric, mu, g[0], g[1],
-                      self.xa, self.va, self.sa, self.za, self.ra, self.ma)
+                      self.xa, self.va, self.sa, self.za, self.ra, self.ma, self.vka)
 
     def accelerations(self):
         """Internal acceleration from the current stress [S 4-9, 4-10] into ``a``."""
@@ -206,8 +208,9 @@ class DruckerPragerBody:
         b = self.body
         n = b.n
         tot = n + self.ng
-        K.velocity_gradient(n, self.xa[:tot], self.va[:tot], self.ra[:tot], self.ma[:tot],
-                            self.nbr_start, self.nbr_j, self.h, self.kernel, b["L"], b["drho"])
+        K.velocity_gradient(n, self.xa[:tot], self.va[:tot], self.vka[:tot], self.ra[:tot],
+                            self.ma[:tot], self.nbr_start, self.nbr_j, self.h, self.kernel,
+                            b["L"], b["drho"])
         K.stress_update(n, b["L"], b["sigma"], b["szz"], b["eps_p"], dt, self.G, self.K,
                         self.alpha, self.kc, self.alpha_psi)
 

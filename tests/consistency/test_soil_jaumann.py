@@ -30,7 +30,7 @@ def rotate(n_steps, omega=2.0, theta=0.6, use_sph=False):
         h = 1.2 * dx
         start, nbr = find_neighbors(x, x, 2 * h, exclude_self=True)
         L = np.zeros((n, 2, 2))
-        K.velocity_gradient(n, x, v, np.full(n, 2000.0), np.full(n, 2000.0 * dx * dx), start,
+        K.velocity_gradient(n, x, v, v, np.full(n, 2000.0), np.full(n, 2000.0 * dx * dx), start,
                             nbr, h, CUBIC_SPLINE, L, np.zeros(n))
     else:
         L = np.broadcast_to(W, (n, 2, 2)).copy()

@@ -91,7 +91,8 @@ def test_velocity_gradient_and_continuity_match_dense(state):
     n = s["n"]
     L = np.zeros((n, 2, 2))
     drho = np.zeros(n)
-    K.velocity_gradient(n, s["x"], s["v"], s["rho"], s["m"], s["start"], s["nbr"], H,
+    vk = s["v"][::-1].copy()  # the continuity's (kinematic) velocities, distinct from v
+    K.velocity_gradient(n, s["x"], s["v"], vk, s["rho"], s["m"], s["start"], s["nbr"], H,
                         CUBIC_SPLINE, L, drho)
     i, j, d, r = dense_pairs(s["x"][:n], s["x"])
     gw = grad_w(d, r)
@@ -104,7 +105,7 @@ def test_velocity_gradient_and_continuity_match_dense(state):
     ref = np.einsum("nab,nbc->nac", raw, np.linalg.inv(M))
     np.testing.assert_allclose(L, ref, rtol=1e-9, atol=1e-12 * np.abs(ref).max())
     dref = np.zeros(n)
-    np.add.at(dref, i, s["m"][j] * ((v[i] - v[j]) * gw).sum(-1))
+    np.add.at(dref, i, s["m"][j] * ((vk[i] - vk[j]) * gw).sum(-1))
     np.testing.assert_allclose(drho, dref, rtol=1e-10, atol=1e-12 * np.abs(dref).max())
 
 
@@ -115,9 +116,48 @@ def test_velocity_gradient_exact_for_linear_field():
     v = x @ A.T + [0.5, -0.2]
     start, nbr = find_neighbors(x, x, 2 * H, exclude_self=True)
     L = np.zeros((n, 2, 2))
-    K.velocity_gradient(n, x, v, np.full(n, 2000.0), np.full(n, 2000.0 * DX * DX), start, nbr,
-                        H, CUBIC_SPLINE, L, np.zeros(n))
+    K.velocity_gradient(n, x, v, v, np.full(n, 2000.0), np.full(n, 2000.0 * DX * DX), start,
+                        nbr, H, CUBIC_SPLINE, L, np.zeros(n))
     np.testing.assert_allclose(L, np.broadcast_to(A, L.shape), atol=1e-10)
+
+
+def test_continuity_of_a_block_sliding_on_a_no_slip_floor():
+    """A block translating rigidly along a no-slip floor: the mirrored configuration moves
+    rigidly too, so the continuity [S 4-5] must give zero density rate everywhere, also at
+    the block's ends, whose neighbourhood is one-sided. The no-slip ghosts' reversed
+    tangential velocity must still give the shear rate at the floor in ``L``."""
+    x, _ = lattice(nx=8, ny=4, seed=4)
+    n = len(x)
+    side = np.array([K.BOTTOM])
+    pos = np.array([0.0])
+    fric = np.array([K.NO_SLIP])
+    cap = 4 * n
+    xa = np.zeros((n + cap, 2))
+    xa[:n] = x
+    src, wa, wb = (np.zeros(cap, np.int64) for _ in range(3))
+    ng = K.make_ghosts(xa, n, side, pos, 2 * H, xa, src, wa, wb)
+    tot = n + ng
+    v = np.zeros((tot, 2))
+    v[:n] = [0.7, 0.0]
+    vk = v.copy()
+    sig = np.zeros((tot, 2, 2))
+    szz = np.zeros(tot)
+    rho = np.full(tot, 2000.0)
+    m = np.full(tot, 2000.0 * DX * DX)
+    K.fill_ghosts(n, ng, src, wa, wb, side, fric, np.zeros(1), 0.0, -9.81, xa[:tot], v, sig,
+                  szz, rho, m, vk)
+    start, nbr = find_neighbors(x, xa[:tot], 2 * H, exclude_self=True)
+    L = np.zeros((n, 2, 2))
+    drho = np.zeros(n)
+    K.velocity_gradient(n, xa[:tot], v, vk, rho, m, start, nbr, H, CUBIC_SPLINE, L, drho)
+    np.testing.assert_array_equal(drho, 0.0)
+    near = x[:, 1] < DX  # bottom row: sheared against the no-slip ghosts
+    assert np.all(L[near, 0, 1] > 0.7 / (2 * H))
+    # with the ghosts' no-slip velocity in the continuity (the former scheme) the ends of the
+    # bottom row would see a density rate of the order rho v / h
+    drho_v = np.zeros(n)
+    K.velocity_gradient(n, xa[:tot], v, v, rho, m, start, nbr, H, CUBIC_SPLINE, L, drho_v)
+    assert np.abs(drho_v).max() > 0.1 * 2000.0 * 0.7 / H
 
 
 def test_xsph_matches_dense(state):
@@ -174,9 +214,13 @@ def test_ghosts_mirror_positions_velocity_and_stress():
                                (K.COULOMB, 1, 0.0)]:
         fr = np.array([fric, K.FREE_SLIP])
         mu = np.array([tan_d, 0.0])
-        K.fill_ghosts(n, ng, src, wa, wb, side, fr, mu, 0.0, -9.81, xa, v, sig, szz, rho, m)
+        vk = v.copy()
+        K.fill_ghosts(n, ng, src, wa, wb, side, fr, mu, 0.0, -9.81, xa, v, sig, szz, rho, m,
+                      vk)
         g = n + 3  # floor ghost of particle 1
         assert v[g].tolist() == [vt_sign * 3.0, 4.0]
+        assert vk[g].tolist() == [3.0, 4.0]  # the mirror's own motion, any friction
+        assert vk[n + 1].tolist() == [-1.0, 2.0]  # corner ghost of particle 0: both reversed
         assert sig[g, 0, 1] == pytest.approx(2 * tau - 300.0)
         # floor-normal stress extrapolated with gravity: sigma_yy - rho g (y_g - y_i)
         assert sig[g, 1, 1] == pytest.approx(-2e3 - 2000.0 * 9.81 * 0.06)
@@ -215,3 +259,25 @@ def test_shepard_stress_matches_dense(state):
     np.add.at(den, i, wv)
     np.testing.assert_allclose(out, num / den[:, None, None], rtol=1e-11, atol=1e-9)
     np.testing.assert_allclose(outz, numz / den, rtol=1e-11, atol=1e-9)
+
+
+def test_coincident_particles_give_finite_results():
+    """Two particles at the same place (both put back into a wall corner by the wall guard):
+    grad W(0) = 0, so the pair adds nothing, instead of 0/0."""
+    x = np.array([[0.0, 0.0], [0.0, 0.0], [0.05, 0.02]])
+    n = 3
+    v = np.array([[1.0, 0.0], [0.0, 1.0], [0.5, 0.5]])
+    rho = np.full(n, 2000.0)
+    m = np.full(n, 2000.0 * DX * DX)
+    sig = np.zeros((n, 2, 2))
+    sig[:, 0, 0] = sig[:, 1, 1] = -1e3
+    start, nbr = find_neighbors(x, x, 2 * H, exclude_self=True)
+    a = np.zeros((n, 2))
+    K.momentum(n, x, v, rho, m, sig, np.zeros((n, 2, 2)), start, nbr, H, CUBIC_SPLINE, 50.0,
+               0.1, 0.1, 0.0, 1.0, np.full(0, -1), a, np.zeros((n, 1, 2)))
+    L = np.zeros((n, 2, 2))
+    drho = np.zeros(n)
+    K.velocity_gradient(n, x, v, v, rho, m, start, nbr, H, CUBIC_SPLINE, L, drho)
+    assert np.isfinite(a).all() and np.isfinite(L).all() and np.isfinite(drho).all()
+    # particle 2 sees the pair as two ordinary neighbours at the same place
+    assert np.abs(a[2]).max() > 0.0

@@ -90,10 +90,13 @@ def test_dilatancy_changes_mean_stress():
 
 
 @pytest.mark.parametrize("c", [0.0, 1e4])
-def test_tension_apex(c):
-    """A hydrostatic tension beyond the apex goes to the apex I1 = k_c/alpha with s = 0;
-    for c = 0 that is the stress-free state."""
-    alpha, kc, apsi = dp_parameters(math.radians(30.0), c, 0.0)
+@pytest.mark.parametrize("psi", [0.0, 15.0, 30.0])
+def test_tension_apex(c, psi):
+    """A hydrostatic tension beyond the apex goes to the apex I1 = k_c/alpha with s = 0
+    (tension cracking: I1 moved back to the apex, then the deviator scaled by
+    (k_c - alpha I1)/sqrt(J2) = 0, PHYSICS §6 / [S 4-36]); for c = 0 that is the stress-free
+    state, whatever the dilatancy: a particle pulled apart must not come out compressed."""
+    alpha, kc, apsi = dp_parameters(math.radians(30.0), c, math.radians(psi))
     s = (5e4, 4e4, 1e4, 4.5e4)
     out = return_map(*s, alpha, kc, apsi, G, K)
     i1, sj2 = invariants(*out[:4])
