@@ -1,0 +1,183 @@
+"""The viscous part of the intermediate velocity [F 16], explicit or implicit.
+
+Explicit (the default, :func:`fsi_sph.fluid._kernels.predict_velocity`)::
+
+    u*_i = u_i + dt (sum_j c_ij (u_j - u_i) + g),
+    c_ij = -V_j (nu_i + nu_j) r_ij dW/dr / (r_ij^2 + eta^2)   (Morris [F 11-12], c_ij >= 0)
+
+is stable only for ``dt <= 0.125 h^2 / nu_max`` [F 48], which the large apparent viscosity of
+the mu(I) law (PHYSICS.md §7) makes prohibitive. Implicit (backward Euler) with the same
+Morris operator and the same neighbours, then the body force::
+
+    u**_i - dt sum_j c_ij (u**_j - u**_i) = u_i,      u*_i = u**_i + dt g
+
+(the body force outside the solve, so that a fluid at rest gets exactly ``u* = dt g``, like
+the explicit form, which the projection removes against the walls' ``u*_w = dt g``; with
+``g`` inside the solve the no-slip walls would drag the gravity increment and a layer at
+rest would not stay at rest)
+is a sparse system ``A u* = b`` for each velocity component, ``A = I + dt (D - C)``,
+``D_ii = sum_j c_ij`` over all neighbours, ``C_ij = c_ij`` over fluid neighbours. Boundary
+(wall) neighbours carry their known velocity ``u_w`` (no slip): ``b_i += dt sum_w c_iw u_w``.
+Periodic images of fluid particles (``col_of[j] >= 0`` for ``j >= nf``) are folded onto the
+column of their original. With equal volumes ``c_ij = c_ji``, so ``A`` is symmetric and
+strictly diagonally dominant with a positive diagonal: symmetric positive definite. It is
+solved by conjugate gradients preconditioned by a pyamg smoothed-aggregation hierarchy (one
+hierarchy for both components), warm-started from ``u^n``.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import pyamg
+import scipy.sparse as sp
+from numba import njit
+
+from fsi_sph.fluid import _kernels as K
+from fsi_sph.sph.kernels import kernel_dw
+
+
+@dataclass
+class ViscousStats:
+    """One implicit viscous solve: CG iterations (sum over both components), largest final
+    relative residual, wall time (s)."""
+
+    iterations: int = 0
+    residual: float = 0.0
+    time: float = 0.0
+
+
+@njit(cache=True)
+def pair_coefficients(x, vol, nu, nbr_start, nbr_j, nf, h, kind, eta2, out_c):
+    """Morris coefficient ``c_ij = -V_j (nu_i + nu_j) r dW/dr / (r^2 + eta^2)`` of every pair
+    of the fluid rows' CSR list (``out_c`` aligned with ``nbr_j``)."""
+    for i in range(nf):
+        for k in range(nbr_start[i], nbr_start[i + 1]):
+            j = nbr_j[k]
+            d0 = x[i, 0] - x[j, 0]
+            d1 = x[i, 1] - x[j, 1]
+            r2 = d0 * d0 + d1 * d1
+            r = math.sqrt(r2)
+            if r < 1e-12 * h:
+                out_c[k] = 0.0
+                continue
+            out_c[k] = -vol[j] * (nu[i] + nu[j]) * r * kernel_dw(kind, r, h) / (r2 + eta2)
+
+
+def assemble(x, vol, nu, v, nbr_start, nbr_j, nf, h, kind, eta2, dt, col_of):
+    """``A`` (nf x nf, CSR) and the boundary part of the right-hand side,
+    ``dt sum_w c_iw u_w`` (nf, 2), of the implicit viscous step (module docstring).
+
+    ``x, vol, nu, v``: stacked (fluid, then boundary) arrays; ``col_of[j]``: unknown of
+    source ``j`` (``j`` itself for fluid, the original for a periodic image, -1 for a
+    boundary particle of known velocity ``v[j]``)."""
+    c = np.empty(len(nbr_j))
+    pair_coefficients(x, vol, nu, nbr_start, nbr_j, nf, h, kind, eta2, c)
+    rows = np.repeat(np.arange(nf), np.diff(nbr_start))
+    cols = col_of[nbr_j]
+    diag = 1.0 + dt * np.bincount(rows, weights=c, minlength=nf)
+    inner = cols >= 0
+    A = sp.csr_array((np.concatenate([diag, -dt * c[inner]]),
+                      (np.concatenate([np.arange(nf), rows[inner]]),
+                       np.concatenate([np.arange(nf), cols[inner]]))), shape=(nf, nf))
+    A.sum_duplicates()
+    wall = ~inner
+    b_wall = np.zeros((nf, 2))
+    for k in range(2):
+        b_wall[:, k] = dt * np.bincount(rows[wall], weights=c[wall] * v[nbr_j[wall], k],
+                                        minlength=nf)
+    return A, b_wall
+
+
+def solve(A, rhs, x0, rtol):
+    """Solve ``A u = rhs`` column by column (CG + smoothed-aggregation AMG); returns
+    ``(u, ViscousStats)``."""
+    t0 = time.perf_counter()
+    n = A.shape[0]
+    out = np.empty_like(rhs)
+    stats = ViscousStats()
+    if n == 0:
+        return out, stats
+    A = sp.csr_matrix(A)
+    A.indices = A.indices.astype(np.int32)
+    A.indptr = A.indptr.astype(np.int32)
+    ml = pyamg.smoothed_aggregation_solver(A, symmetry="symmetric", max_coarse=50)
+    for k in range(rhs.shape[1]):
+        b = np.ascontiguousarray(rhs[:, k])
+        res = []
+        u = ml.solve(b, x0=np.ascontiguousarray(x0[:, k]), tol=rtol, accel="cg", maxiter=200,
+                     residuals=res)
+        nb = np.linalg.norm(b)
+        rel = float(np.linalg.norm(b - A @ u) / nb) if nb > 0 else 0.0
+        if not rel <= 10.0 * rtol:  # not converged: a direct solve, so the step stays right
+            from scipy.sparse.linalg import spsolve
+
+            u = spsolve(A.tocsc(), b)
+            rel = float(np.linalg.norm(b - A @ u) / nb) if nb > 0 else 0.0
+        out[:, k] = u
+        stats.iterations += max(len(res) - 1, 0)
+        stats.residual = max(stats.residual, rel)
+    stats.time = time.perf_counter() - t0
+    return out, stats
+
+
+def predict(fluid, dt):
+    """[F 16] for a fluid with a non-Newtonian law or the implicit viscous step: the
+    viscosity from the law (velocity gradient and pressure of step n), then the
+    intermediate velocity ``fluid.v_star``."""
+    b = fluid.body
+    nf = fluid.nf
+    fluid._sync()
+    law = fluid.viscosity_law
+    if law.needs_gradients:
+        fluid._gradients()
+        law.update(fluid.grad_v, b["p"], b["nu"])
+    else:
+        b["nu"][:] = law.nu0
+    fluid.nu_all[:nf] = b["nu"]
+    if fluid.periodic is not None:
+        fluid.periodic.sync(fluid)  # the images' viscosity
+    if fluid.n_walls and law.kind != "newtonian":
+        wall_viscosity(fluid)
+    fluid.v_old[:] = b["v"]
+    g = fluid.gravity
+    if fluid.cfg.viscous_step == "implicit":
+        col_of = np.full(len(fluid.x_all), -1, dtype=np.int64)
+        col_of[:nf] = np.arange(nf)
+        if fluid.periodic is not None:
+            rows, src = fluid.periodic.fluid_images()
+            col_of[rows] = src
+        A, b_wall = assemble(fluid.x_all, fluid.vol_all, fluid.nu_all, fluid.v_all,
+                             fluid.ff_start, fluid.ff_j, nf, fluid.h, fluid.kernel, fluid.eta2,
+                             dt, col_of)
+        # the body force is added after the viscous solve (a split step): a field at rest
+        # gets exactly u* = dt g, as in the explicit form, which the projection removes
+        # against the walls' u*_w = dt g of the PPE; inside the solve the walls keep
+        # their own velocity (no slip)
+        u, fluid.viscous_stats = solve(A, fluid.v_old + b_wall, fluid.v_old,
+                                       fluid.cfg.viscous_rtol)
+        fluid.v_star[:] = u + dt * g
+    else:
+        K.predict_velocity(fluid.x_all, fluid.v_all, fluid.vol_all, fluid.nu_all,
+                           fluid.ff_start, fluid.ff_j, nf, fluid.h, fluid.kernel, fluid.eta2,
+                           g[0], g[1], dt, fluid.v_star)
+
+
+def wall_viscosity(fluid):
+    """Viscosity of the fixed wall particles: the Shepard average of their fluid neighbours'
+    (a wall particle with none keeps the material's ``nu``). A no-slip wall then shears
+    the fluid beside it with the fluid's own viscosity, as a mirrored fluid would (Morris
+    et al. 1997 give boundary particles the fluid's viscosity); with a constant wall value
+    far below the apparent viscosity, the pair term ``(nu_i + nu_w)`` halves the wall
+    friction of a mu(I) material and the layer slips over a no-slip bed."""
+    nf, nw = fluid.nf, fluid.n_walls
+    out = np.empty(nw)
+    K.shepard_at(fluid.x_all[nf:nf + nw], fluid.x_all, fluid.nu_all, fluid.wf_start,
+                 fluid.wf_j, fluid.h, fluid.kernel, out)
+    out[~np.isfinite(out)] = fluid.viscosity_law.nu0
+    fluid.nu_all[nf:nf + nw] = out
+    if fluid.periodic is not None:
+        fluid.periodic.sync(fluid)  # and the wall images'
