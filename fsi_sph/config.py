@@ -289,6 +289,10 @@ class MuIParameters(_Model):
     rho_s: Positive = Field(description="grain density (kg/m^3) [G 32]")
     eta_max: Positive = Field(description="cap on the apparent dynamic viscosity (Pa s)")
     alpha_r: Positive = Field(0.01, description="regularisation rate alpha_r (1/s) [G 35]")
+    pressure_offset: Literal["half_spacing", "none"] = Field(
+        "half_spacing", description="`half_spacing`: the law's confining pressure is the ISPH "
+        "pressure plus rho |g| dx / 2, the head of the half spacing between the p = 0 "
+        "surface-particle centres and the real free surface; `none`: the ISPH pressure")
 
     @model_validator(mode="after")
     def _mu2_gt_mus(self):

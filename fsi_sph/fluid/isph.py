@@ -159,7 +159,7 @@ class IncompressibleFluid:
             from fsi_sph.fluid.rheology import ViscosityLaw
             from fsi_sph.fluid.viscous import ViscousStats
 
-            self.viscosity_law = ViscosityLaw(cfg, dx)
+            self.viscosity_law = ViscosityLaw(cfg, dx, gravity)
             self.viscous_stats = ViscousStats()
         self.dt_limits = {}
         self.periodic = None

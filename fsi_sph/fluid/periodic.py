@@ -111,7 +111,9 @@ class Periodic:
         fluid.v_all[r] = fluid.v_all[s]
         fluid.p_all[r] = fluid.p_all[s]
         fluid.nu_all[r] = fluid.nu_all[s]
-        fluid.v_b[r - fluid.nf] = fluid.v_all[r]
+        k = len(self.fluid_idx)  # boundary velocity: the fluid's, or the wall's own
+        fluid.v_b[r[:k] - fluid.nf] = fluid.v_all[s[:k]]
+        fluid.v_b[r[k:] - fluid.nf] = fluid.v_b[s[k:] - fluid.nf]
 
     def fluid_images(self):
         """(global rows, global originals) of the fluid images."""

@@ -95,7 +95,7 @@ class ViscosityLaw:
     """The viscosity law of a ``FluidSection``: fills the fluid's kinematic viscosity ``nu``
     from the velocity gradient and the pressure (:meth:`update`)."""
 
-    def __init__(self, fluid_cfg, dx):
+    def __init__(self, fluid_cfg, dx, gravity=(0.0, 0.0)):
         mat = fluid_cfg.material
         self.kind = mat.viscosity
         self.rho = mat.rho0
@@ -104,6 +104,17 @@ class ViscosityLaw:
         cs = fluid_cfg.smagorinsky.cs if fluid_cfg.smagorinsky is not None else 0.12
         self.cs_dx2 = (cs * dx) ** 2
         self.smagorinsky = self.kind == "smagorinsky" or fluid_cfg.smagorinsky is not None
+        # Confining pressure of the mu(I) law. The PPE puts p = 0 at the centres of the
+        # free-surface particles, half a spacing below the real surface (docs/fluid.md), so
+        # the ISPH pressure is short of the hydrostatic one by rho |g| dx / 2 everywhere
+        # under a free surface. For a pressure-proportional friction this matters near the
+        # surface: two rows down the pressure is half the real one, the friction needed
+        # to hold the rows above exceeds mu_2 and the surface layer runs away. With
+        # pressure_offset = "half_spacing" the law sees p + rho |g| dx / 2 (|g| cos theta
+        # would be exact for a surface inclined by theta; |g| keeps the correction local).
+        self.p_offset = 0.0
+        if self.params is not None and self.params.pressure_offset == "half_spacing":
+            self.p_offset = 0.5 * self.rho * float(np.hypot(*gravity)) * dx
 
     @property
     def needs_gradients(self):
@@ -113,7 +124,7 @@ class ViscosityLaw:
         """Kinematic viscosity of every fluid particle into ``out_nu``."""
         if self.kind == "mu_i":
             q = self.params
-            eta = apparent_viscosity(strain_rate(grad_v), p, q.mu_s, q.mu_2, q.I0, q.d, q.rho_s,
+            eta = apparent_viscosity(strain_rate(grad_v), p + self.p_offset, q.mu_s, q.mu_2, q.I0, q.d, q.rho_s,
                                      q.eta_max, q.alpha_r)
             out_nu[:] = eta / self.rho
         elif self.smagorinsky:

@@ -13,8 +13,20 @@ Morris operator and the same neighbours, then the body force::
 
 (the body force outside the solve, so that a fluid at rest gets exactly ``u* = dt g``, like
 the explicit form, which the projection removes against the walls' ``u*_w = dt g``; with
-``g`` inside the solve the no-slip walls would drag the gravity increment and a layer at
-rest would not stay at rest)
+``g`` inside the solve and walls at rest the no-slip walls would drag the gravity increment
+and a layer at rest would not stay at rest).
+
+For the non-Newtonian laws the walls are no-slip mirrors (:func:`wall_mirror`, Adami et
+al. 2012) and the body force is inside the solve::
+
+    u*_i - dt sum_j c_ij (u*_j - u*_i) = u_i + dt g,   u*_w = 2 (u_w + dt g_w) - <u*>_w
+
+with ``<u*>_w`` the Shepard average of the fluid around wall particle ``w`` and
+``u_w + dt g_w`` the wall's predicted velocity of the PPE (so a fluid at rest again gets
+exactly ``u* = dt g``). The split form is not used there: next to a no-slip bed the wall
+coupling rate ``sum_w c_iw`` of a mu(I) material reaches 1/dt, and the O(dt g) split error
+became an O(1) error of the bed stress (measured on the Bagnold case: the first row felt
+three times the bed friction it should, and the layer slipped).
 is a sparse system ``A u* = b`` for each velocity component, ``A = I + dt (D - C)``,
 ``D_ii = sum_j c_ij`` over all neighbours, ``C_ij = c_ij`` over fluid neighbours. Boundary
 (wall) neighbours carry their known velocity ``u_w`` (no slip): ``b_i += dt sum_w c_iw u_w``.
@@ -37,7 +49,7 @@ import scipy.sparse as sp
 from numba import njit
 
 from fsi_sph.fluid import _kernels as K
-from fsi_sph.sph.kernels import kernel_dw
+from fsi_sph.sph.kernels import kernel_dw, kernel_w
 
 
 @dataclass
@@ -67,13 +79,18 @@ def pair_coefficients(x, vol, nu, nbr_start, nbr_j, nf, h, kind, eta2, out_c):
             out_c[k] = -vol[j] * (nu[i] + nu[j]) * r * kernel_dw(kind, r, h) / (r2 + eta2)
 
 
-def assemble(x, vol, nu, v, nbr_start, nbr_j, nf, h, kind, eta2, dt, col_of):
+def assemble(x, vol, nu, v, nbr_start, nbr_j, nf, h, kind, eta2, dt, col_of, mirror=None):
     """``A`` (nf x nf, CSR) and the boundary part of the right-hand side,
     ``dt sum_w c_iw u_w`` (nf, 2), of the implicit viscous step (module docstring).
 
     ``x, vol, nu, v``: stacked (fluid, then boundary) arrays; ``col_of[j]``: unknown of
     source ``j`` (``j`` itself for fluid, the original for a periodic image, -1 for a
-    boundary particle of known velocity ``v[j]``)."""
+    boundary particle of known velocity ``v[j]``).
+
+    ``mirror = (S, target)`` (from :func:`wall_mirror`): the boundary velocities are the
+    no-slip mirror ``u_w = target_w - S_w u`` of the unknown fluid velocities (rows of ``S``
+    and ``target`` by boundary row ``j - nf``); ``A`` gains ``dt C_w S`` and is no longer
+    symmetric, and the right-hand side part is ``dt C_w target``."""
     c = np.empty(len(nbr_j))
     pair_coefficients(x, vol, nu, nbr_start, nbr_j, nf, h, kind, eta2, c)
     rows = np.repeat(np.arange(nf), np.diff(nbr_start))
@@ -86,10 +103,55 @@ def assemble(x, vol, nu, v, nbr_start, nbr_j, nf, h, kind, eta2, dt, col_of):
     A.sum_duplicates()
     wall = ~inner
     b_wall = np.zeros((nf, 2))
-    for k in range(2):
-        b_wall[:, k] = dt * np.bincount(rows[wall], weights=c[wall] * v[nbr_j[wall], k],
-                                        minlength=nf)
+    if mirror is None:
+        for k in range(2):
+            b_wall[:, k] = dt * np.bincount(rows[wall], weights=c[wall] * v[nbr_j[wall], k],
+                                            minlength=nf)
+        return A, b_wall
+    S, target = mirror
+    Cw = sp.csr_array((c[wall], (rows[wall], nbr_j[wall] - nf)), shape=(nf, S.shape[0]))
+    A = sp.csr_array(A + dt * (Cw @ S))
+    b_wall = dt * (Cw @ target)
     return A, b_wall
+
+
+def wall_mirror(fluid, col_of):
+    """No-slip velocity of the boundary particles for the viscous term (Adami et al. 2012):
+    ``u_w = 2 v_w - sum_f W_wf u_f / sum_f W_wf`` over the fluid neighbours ``f`` of ``w``
+    (``v_w`` the wall's own velocity), so that the velocity extrapolated through the wall
+    vanishes at the wall and not a few wall layers deeper; ``u_w = v_w`` without fluid
+    neighbours. Returns ``(S, target)``: ``u_w = target_w - S_w u`` with ``S`` (boundary
+    rows x fluid unknowns, periodic images folded by ``col_of``)."""
+    nf, nb = fluid.nf, len(fluid.x_all) - fluid.nf
+    start, j = fluid.wf_start, fluid.wf_j
+    rows = np.repeat(np.arange(nb), np.diff(start))
+    d = fluid.x_all[nf + rows] - fluid.x_all[j]
+    w = kernel_w_array(np.hypot(d[:, 0], d[:, 1]), fluid.h, fluid.kernel)
+    sw = np.bincount(rows, weights=w, minlength=nb)
+    has = sw > 0.0
+    wt = w / np.where(sw > 0.0, sw, 1.0)[rows]
+    S = sp.csr_array((wt, (rows, col_of[j])), shape=(nb, nf))
+    S.sum_duplicates()
+    return S, wall_target(S, fluid.v_b, has)
+
+
+def wall_target(S, v_wall, has=None):
+    """``target_w = 2 v_w`` where wall ``w`` has fluid neighbours, else ``v_w``."""
+    if has is None:
+        has = np.diff(S.indptr) > 0
+    return np.where(has[:, None], 2.0, 1.0) * v_wall
+
+
+def kernel_w_array(r, h, kind):
+    out = np.empty(len(r))
+    _kernel_w_loop(r, h, kind, out)
+    return out
+
+
+@njit(cache=True)
+def _kernel_w_loop(r, h, kind, out):
+    for k in range(len(r)):
+        out[k] = kernel_w(kind, r[k], h)
 
 
 def solve(A, rhs, x0, rtol):
@@ -104,11 +166,14 @@ def solve(A, rhs, x0, rtol):
     A = sp.csr_matrix(A)
     A.indices = A.indices.astype(np.int32)
     A.indptr = A.indptr.astype(np.int32)
-    ml = pyamg.smoothed_aggregation_solver(A, symmetry="symmetric", max_coarse=50)
+    sym = abs(A - A.T).max() <= 1e-12 * abs(A).max()
+    accel = "cg" if sym else "bicgstab"
+    ml = pyamg.smoothed_aggregation_solver(A, symmetry="symmetric" if sym else "nonsymmetric",
+                                           max_coarse=50)
     for k in range(rhs.shape[1]):
         b = np.ascontiguousarray(rhs[:, k])
         res = []
-        u = ml.solve(b, x0=np.ascontiguousarray(x0[:, k]), tol=rtol, accel="cg", maxiter=200,
+        u = ml.solve(b, x0=np.ascontiguousarray(x0[:, k]), tol=rtol, accel=accel, maxiter=200,
                      residuals=res)
         nb = np.linalg.norm(b)
         rel = float(np.linalg.norm(b - A @ u) / nb) if nb > 0 else 0.0
@@ -132,6 +197,18 @@ def predict(fluid, dt):
     nf = fluid.nf
     fluid._sync()
     law = fluid.viscosity_law
+    col_of = np.full(len(fluid.x_all), -1, dtype=np.int64)
+    col_of[:nf] = np.arange(nf)
+    if fluid.periodic is not None:
+        rows, src = fluid.periodic.fluid_images()
+        col_of[rows] = src
+    mirror = None
+    wall_rows = col_of[nf:] < 0  # boundary rows of known velocity (not periodic images)
+    if law.kind != "newtonian" and wall_rows.any():
+        mirror = wall_mirror(fluid, col_of)
+        S, target = mirror
+        u_w = target - S @ b["v"]
+        fluid.v_all[nf:][wall_rows] = u_w[wall_rows]  # strain rate and explicit operator
     if law.needs_gradients:
         fluid._gradients()
         law.update(fluid.grad_v, b["p"], b["nu"])
@@ -145,25 +222,33 @@ def predict(fluid, dt):
     fluid.v_old[:] = b["v"]
     g = fluid.gravity
     if fluid.cfg.viscous_step == "implicit":
-        col_of = np.full(len(fluid.x_all), -1, dtype=np.int64)
-        col_of[:nf] = np.arange(nf)
-        if fluid.periodic is not None:
-            rows, src = fluid.periodic.fluid_images()
-            col_of[rows] = src
-        A, b_wall = assemble(fluid.x_all, fluid.vol_all, fluid.nu_all, fluid.v_all,
-                             fluid.ff_start, fluid.ff_j, nf, fluid.h, fluid.kernel, fluid.eta2,
-                             dt, col_of)
-        # the body force is added after the viscous solve (a split step): a field at rest
-        # gets exactly u* = dt g, as in the explicit form, which the projection removes
-        # against the walls' u*_w = dt g of the PPE; inside the solve the walls keep
-        # their own velocity (no slip)
-        u, fluid.viscous_stats = solve(A, fluid.v_old + b_wall, fluid.v_old,
-                                       fluid.cfg.viscous_rtol)
-        fluid.v_star[:] = u + dt * g
+        if mirror is not None:
+            # the walls are mirrored about their predicted velocity u_w + dt (g - a_w), the
+            # u*_w of the PPE (module docstring)
+            S, target = mirror
+            target = wall_target(S, fluid.v_b + dt * fluid.g_b)
+            mirror = (S, target)
+            A, b_wall = assemble(fluid.x_all, fluid.vol_all, fluid.nu_all, fluid.v_all,
+                                 fluid.ff_start, fluid.ff_j, nf, fluid.h, fluid.kernel,
+                                 fluid.eta2, dt, col_of, mirror)
+            u, fluid.viscous_stats = solve(A, fluid.v_old + dt * g + b_wall, fluid.v_old,
+                                           fluid.cfg.viscous_rtol)
+            fluid.v_star[:] = u
+        else:
+            A, b_wall = assemble(fluid.x_all, fluid.vol_all, fluid.nu_all, fluid.v_all,
+                                 fluid.ff_start, fluid.ff_j, nf, fluid.h, fluid.kernel,
+                                 fluid.eta2, dt, col_of)
+            # walls at their own velocity: the body force is added after the solve (a
+            # split step), so that a fluid at rest gets exactly u* = dt g, which the
+            # projection removes against the walls' u*_w = dt g of the PPE
+            u, fluid.viscous_stats = solve(A, fluid.v_old + b_wall, fluid.v_old,
+                                           fluid.cfg.viscous_rtol)
+            fluid.v_star[:] = u + dt * g
     else:
         K.predict_velocity(fluid.x_all, fluid.v_all, fluid.vol_all, fluid.nu_all,
                            fluid.ff_start, fluid.ff_j, nf, fluid.h, fluid.kernel, fluid.eta2,
                            g[0], g[1], dt, fluid.v_star)
+    fluid.v_all[nf:] = fluid.v_b  # what the projection sees: the walls' own velocity
 
 
 def wall_viscosity(fluid):

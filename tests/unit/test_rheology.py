@@ -255,3 +255,24 @@ def test_mu_i_scene_records_both_time_step_limits(tmp_path):
     assert np.all(dt <= np.minimum(adv, s[:, cols.index("dt_force")]) * (1 + 1e-12))
     assert np.all(dt[1:] > visc[1:])  # implicit: the explicit viscous limit is not applied
     assert np.all(s[1:, cols.index("viscous_residual")] < 1e-7)
+
+
+def test_mirrored_walls_in_the_implicit_matrix_equal_the_explicit_operator(rng):
+    """With the no-slip mirror u_w = target - S u (Adami et al. 2012) folded into A, the
+    matrix still reproduces the explicit Morris update with the mirrored wall velocities."""
+    import scipy.sparse as sp
+
+    nf = 80
+    x, start, j, vol, nu, v = _morris_setup(rng, nf)
+    kind, h, eta2, dt = KERNELS["cubic_spline"], 0.12, (0.012) ** 2, 1e-3
+    nb = len(x) - nf
+    col_of = np.full(len(x), -1)
+    col_of[:nf] = np.arange(nf)
+    S = sp.csr_array(rng.uniform(0, 1, (nb, nf)) * (rng.uniform(0, 1, (nb, nf)) < 0.1))
+    target = rng.normal(size=(nb, 2))
+    A, b_wall = V.assemble(x, vol, nu, v, start, j, nf, h, kind, eta2, dt, col_of, (S, target))
+    vm = v.copy()
+    vm[nf:] = target - S @ v[:nf]
+    out = np.zeros((nf, 2))
+    K.predict_velocity(x, vm, vol, nu, start, j, nf, h, kind, eta2, 0.0, 0.0, dt, out)
+    assert_allclose(A @ v[:nf] - b_wall, 2 * v[:nf] - out, rtol=1e-10, atol=1e-12)
