@@ -121,7 +121,8 @@ def _plot_dt(log, path):
     fig, ax = plt.subplots(figsize=(6.0, 3.6), layout="constrained")
     ax.semilogy(log["t"], log["dt"], label="dt used")
     ax.semilogy(log["t"], log["dt_advective"], "--", label="advective cfl h/|u|max")
-    ax.semilogy(log["t"], log["dt_viscous_explicit"], ":", label="explicit viscous 0.125 h^2/nu_max")
+    ax.semilogy(log["t"], log["dt_viscous_explicit"], ":",
+                label="explicit viscous 0.125 h^2/nu_max")
     ax.set_xlabel("t (s)")
     ax.set_ylabel("time step (s)")
     ax.grid(alpha=0.3)

@@ -124,8 +124,8 @@ class ViscosityLaw:
         """Kinematic viscosity of every fluid particle into ``out_nu``."""
         if self.kind == "mu_i":
             q = self.params
-            eta = apparent_viscosity(strain_rate(grad_v), p + self.p_offset, q.mu_s, q.mu_2, q.I0, q.d, q.rho_s,
-                                     q.eta_max, q.alpha_r)
+            eta = apparent_viscosity(strain_rate(grad_v), p + self.p_offset, q.mu_s, q.mu_2,
+                                     q.I0, q.d, q.rho_s, q.eta_max, q.alpha_r)
             out_nu[:] = eta / self.rho
         elif self.smagorinsky:
             out_nu[:] = self.nu0 + self.cs_dx2 * strain_rate(grad_v)  # [F 3]
