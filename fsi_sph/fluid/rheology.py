@@ -110,11 +110,14 @@ class ViscosityLaw:
         # under a free surface. For a pressure-proportional friction this matters near the
         # surface: two rows down the pressure is half the real one, the friction needed
         # to hold the rows above exceeds mu_2 and the surface layer runs away. With
-        # pressure_offset = "half_spacing" the law sees p + rho |g| dx / 2 (|g| cos theta
-        # would be exact for a surface inclined by theta; |g| keeps the correction local).
+        # pressure_offset = "half_spacing" the law sees p + rho |g_y| dx / 2: the head of
+        # half a spacing under a free surface normal to y of the case frame (exact for the
+        # inclined layer with tilted gravity; for a surface inclined by beta in the frame the
+        # head is short by the factor cos beta, a second-order part of a small correction).
+        # The inertial number is sensitive to it: near mu_s, dI/I ~ 9 dp/p (Bagnold case).
         self.p_offset = 0.0
         if self.params is not None and self.params.pressure_offset == "half_spacing":
-            self.p_offset = 0.5 * self.rho * float(np.hypot(*gravity)) * dx
+            self.p_offset = 0.5 * self.rho * abs(float(gravity[1])) * dx
 
     @property
     def needs_gradients(self):
@@ -123,11 +126,16 @@ class ViscosityLaw:
     def update(self, grad_v, p, out_nu):
         """Kinematic viscosity of every fluid particle into ``out_nu``."""
         if self.kind == "mu_i":
-            q = self.params
-            eta = apparent_viscosity(strain_rate(grad_v), p + self.p_offset, q.mu_s, q.mu_2,
-                                     q.I0, q.d, q.rho_s, q.eta_max, q.alpha_r)
-            out_nu[:] = eta / self.rho
+            self.gdot = strain_rate(grad_v)
+            out_nu[:] = self.mu_i_nu(self.gdot, p)
         elif self.smagorinsky:
             out_nu[:] = self.nu0 + self.cs_dx2 * strain_rate(grad_v)  # [F 3]
         else:
             out_nu[:] = self.nu0
+
+    def mu_i_nu(self, gdot, p):
+        """Kinematic viscosity ``eta / rho`` of the mu(I) law [G 35] at strain rate ``gdot``
+        and ISPH pressure ``p`` (plus the surface offset)."""
+        q = self.params
+        return apparent_viscosity(gdot, p + self.p_offset, q.mu_s, q.mu_2, q.I0, q.d,
+                                  q.rho_s, q.eta_max, q.alpha_r) / self.rho

@@ -19,14 +19,15 @@ and a layer at rest would not stay at rest).
 For the non-Newtonian laws the walls are no-slip mirrors (:func:`wall_mirror`, Adami et
 al. 2012) and the body force is inside the solve::
 
-    u*_i - dt sum_j c_ij (u*_j - u*_i) = u_i + dt g,   u*_w = 2 (u_w + dt g_w) - <u*>_w
+    u*_i - dt sum_j c_ij (u*_j - u*_i) = u_i + dt g,   u*_w = 2 ubar_w - <u*>_w
 
-with ``<u*>_w`` the Shepard average of the fluid around wall particle ``w`` and
-``u_w + dt g_w`` the wall's predicted velocity of the PPE (so a fluid at rest again gets
-exactly ``u* = dt g``). The split form is not used there: next to a no-slip bed the wall
-coupling rate ``sum_w c_iw`` of a mu(I) material reaches 1/dt, and the O(dt g) split error
-became an O(1) error of the bed stress (measured on the Bagnold case: the first row felt
-three times the bed friction it should, and the layer slipped).
+with ``<u*>_w`` the Shepard average of the fluid around wall particle ``w`` and ``ubar_w``
+the wall velocity: normal to the wall (``n_w``) the wall's predicted velocity of the PPE,
+``u_w + dt ((g - a_w) . n_w) n_w``, so that a fluid at rest under a gravity normal to the
+wall again gets exactly ``u* = dt g``; along the wall its own velocity ``u_w``. (Mirroring
+about the whole ``u_w + dt g`` makes a bed under a tilted gravity slide at ``dt g_t``,
+which, times the wall coupling rate ``sum_w c_iw ~ 1/dt`` of a mu(I) material, was a bed
+force of twice gravity on the first row of the Bagnold case.)
 is a sparse system ``A u* = b`` for each velocity component, ``A = I + dt (D - C)``,
 ``D_ii = sum_j c_ij`` over all neighbours, ``C_ij = c_ij`` over fluid neighbours. Boundary
 (wall) neighbours carry their known velocity ``u_w`` (no slip): ``b_i += dt sum_w c_iw u_w``.
@@ -221,14 +222,26 @@ def predict(fluid, dt):
         wall_viscosity(fluid)
     fluid.v_old[:] = b["v"]
     g = fluid.gravity
+    # The Morris operator with the lattice normalisation of the PPE (docs/fluid.md): on a
+    # regular lattice its second moment is 3.92 instead of 4 (h = 1.2 dx), i.e. the viscous
+    # stress 2 % low. For a Newtonian fluid that is a 2 % viscosity error; for the mu(I) law
+    # the flow makes up for it with a 2 % larger friction coefficient, and near mu_s that is
+    # a ~20 % larger inertial number (dI/I ~ 9 dmu/mu on the Bagnold case). Scaling nu
+    # (the operator is linear in it) keeps the plain Newtonian path as it was.
+    nu_op = fluid.nu_all * fluid.lap_scale if law.kind != "newtonian" else fluid.nu_all
     if fluid.cfg.viscous_step == "implicit":
         if mirror is not None:
-            # the walls are mirrored about their predicted velocity u_w + dt (g - a_w), the
-            # u*_w of the PPE (module docstring)
+            # the walls are mirrored about their predicted velocity: normal to the wall
+            # u_w + dt (g - a_w) . n n, the u*_w of the PPE (module docstring); along the
+            # wall their own velocity (no slip)
             S, target = mirror
-            target = wall_target(S, fluid.v_b + dt * fluid.g_b)
+            n = fluid.wall_n
+            gn = np.einsum("ij,ij->i", fluid.g_b, n)[:, None] * n
+            no_normal = ~n.any(axis=1)
+            gn[no_normal] = fluid.g_b[no_normal]
+            target = wall_target(S, fluid.v_b + dt * gn)
             mirror = (S, target)
-            A, b_wall = assemble(fluid.x_all, fluid.vol_all, fluid.nu_all, fluid.v_all,
+            A, b_wall = assemble(fluid.x_all, fluid.vol_all, nu_op, fluid.v_all,
                                  fluid.ff_start, fluid.ff_j, nf, fluid.h, fluid.kernel,
                                  fluid.eta2, dt, col_of, mirror)
             u, fluid.viscous_stats = solve(A, fluid.v_old + dt * g + b_wall, fluid.v_old,
@@ -245,24 +258,42 @@ def predict(fluid, dt):
                                            fluid.cfg.viscous_rtol)
             fluid.v_star[:] = u + dt * g
     else:
-        K.predict_velocity(fluid.x_all, fluid.v_all, fluid.vol_all, fluid.nu_all,
+        K.predict_velocity(fluid.x_all, fluid.v_all, fluid.vol_all, nu_op,
                            fluid.ff_start, fluid.ff_j, nf, fluid.h, fluid.kernel, fluid.eta2,
                            g[0], g[1], dt, fluid.v_star)
     fluid.v_all[nf:] = fluid.v_b  # what the projection sees: the walls' own velocity
 
 
 def wall_viscosity(fluid):
-    """Viscosity of the fixed wall particles: the Shepard average of their fluid neighbours'
-    (a wall particle with none keeps the material's ``nu``). A no-slip wall then shears
-    the fluid beside it with the fluid's own viscosity, as a mirrored fluid would (Morris
-    et al. 1997 give boundary particles the fluid's viscosity); with a constant wall value
-    far below the apparent viscosity, the pair term ``(nu_i + nu_w)`` halves the wall
-    friction of a mu(I) material and the layer slips over a no-slip bed."""
+    """Viscosity of the fixed wall particles, so that a no-slip wall shears the fluid
+    beside it with the material's own law, as a mirrored fluid would (Morris et al. 1997
+    give boundary particles the fluid's viscosity; with a constant wall value far below
+    the apparent viscosity the pair term ``(nu_i + nu_w)`` halves the wall friction of a
+    mu(I) material and the layer slips over a no-slip bed).
+
+    mu(I): the law [G 35] at the wall particle, with the Shepard average of the fluid
+    neighbours' strain rate and the wall particle's own pressure (Adami's extrapolation
+    from the PPE, i.e. the pressure at the bed, below the first fluid row). Other laws:
+    the Shepard average of the fluid neighbours' viscosity. A wall particle with no fluid
+    neighbour keeps the material's ``nu``."""
     nf, nw = fluid.nf, fluid.n_walls
+    law = fluid.viscosity_law
     out = np.empty(nw)
-    K.shepard_at(fluid.x_all[nf:nf + nw], fluid.x_all, fluid.nu_all, fluid.wf_start,
-                 fluid.wf_j, fluid.h, fluid.kernel, out)
-    out[~np.isfinite(out)] = fluid.viscosity_law.nu0
+    xw = fluid.x_all[nf:nf + nw]
+    if law.kind == "mu_i":
+        gd = np.zeros(len(fluid.x_all))
+        gd[:nf] = law.gdot
+        if fluid.periodic is not None:
+            rows, src = fluid.periodic.fluid_images()
+            gd[rows] = gd[src]
+        K.shepard_at(xw, fluid.x_all, gd, fluid.wf_start, fluid.wf_j, fluid.h, fluid.kernel,
+                     out)
+        ok = np.isfinite(out)
+        out[ok] = law.mu_i_nu(out[ok], fluid.p_all[nf:nf + nw][ok])
+    else:
+        K.shepard_at(xw, fluid.x_all, fluid.nu_all, fluid.wf_start, fluid.wf_j, fluid.h,
+                     fluid.kernel, out)
+    out[~np.isfinite(out)] = law.nu0
     fluid.nu_all[nf:nf + nw] = out
     if fluid.periodic is not None:
         fluid.periodic.sync(fluid)  # and the wall images'
