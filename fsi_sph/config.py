@@ -389,6 +389,10 @@ class FluidSection(_Model):
     density_relaxation: Annotated[float, Field(ge=0.0, le=1.0)] = Field(
         0.0, description="coefficient of the compression-only density-error term added to "
         "the PPE source (Asai et al. 2012); 0 = the pure divergence-free projection [F 17]")
+    density_relaxation_sign: Literal["compression", "both"] = Field(
+        "compression", description="which interior density errors the relaxation term acts "
+        "on: `compression` (sigma > sigma0 only, Asai et al.) or `both` (also an expansion, "
+        "sigma < sigma0, so that a sheared layer does not dilate)")
     cfl: Annotated[float, Field(gt=0.0, le=0.5)] = Field(
         0.2, description="advective limit dt = cfl h / |u|max [F 48]")
     dt_max: Positive = Field(1.0, description="upper bound on the fluid time step (s)")

@@ -54,6 +54,23 @@ def step_log(run_file):
     return {c: s[:, k] for k, c in enumerate(cols)}
 
 
+def snapshot_errors(run_file, profile, u_surf, dx):
+    """(t, profile_pct, mean height of the top particle row in mm) at every snapshot: how
+    the error approaches its end value and whether the layer keeps its thickness."""
+    import h5py
+
+    out = []
+    with h5py.File(run_file, "r") as f:
+        for name in sorted(f["snapshots"], key=lambda k: f["snapshots"][k].attrs["t"]):
+            g = f["snapshots"][name]
+            x, v = g["fluid/x"][()], g["fluid/v"][()]
+            err = 100.0 * math.sqrt(float(np.mean((v[:, 0] - profile(x[:, 1])) ** 2))) / u_surf
+            n_row = max(int(round(np.ptp(x[:, 0]) / dx)) + 1, 1)
+            top = float(np.sort(x[:, 1])[-n_row:].mean() * 1e3)
+            out.append((float(g.attrs["t"]), err, top))
+    return out
+
+
 def validate(quick, data_dir, out_dir):
     from fsi_sph.output import read_probe
 
@@ -74,6 +91,7 @@ def validate(quick, data_dir, out_dir):
         tail = t >= 0.9 * t[-1]
         change = 100.0 * (math.sqrt(ke[-1]) - math.sqrt(ke[tail][0])) / math.sqrt(ke[-1])
         log = step_log(summary["output"])
+        history = snapshot_errors(summary["output"], profile, u_surf, dx)
         top = y > depth - dx
         profiles[label] = (y, u)
         records.append(record(label, dx, summary, {"profile_pct": err}, {
@@ -89,7 +107,10 @@ def validate(quick, data_dir, out_dir):
                                                            log["dt_viscous_explicit"])),
             "viscous_iterations_mean": float(np.mean(log["viscous_iterations"])),
             "ppe_iterations_mean": float(np.mean(log["ppe_iterations"])),
-            "t_end_s": sim.t}))
+            "t_end_s": sim.t,
+            "history_t_s": [h[0] for h in history],
+            "history_profile_pct": [h[1] for h in history],
+            "history_top_row_y_mm": [h[2] for h in history]}))
         _plot_dt(log, out_dir / f"bagnold_dt_{label}.png")
     result = {"case": "bagnold",
               "reference": "Bagnold profile of the mu(I) law [G 36-37] (glass beads, 24 deg)",

@@ -338,7 +338,13 @@ class IncompressibleFluid:
             # al. 2012): lap p = rho div u* / dt + relax rho (sigma0 - sigma) / (sigma0 dt^2),
             # applied where sigma > sigma0 in the interior, so that particles that have
             # drifted together (a divergence-free projection does not see it) are pushed apart.
-            excess = np.maximum(b["sigma"] - self.sigma0, 0.0) / self.sigma0
+            excess = (b["sigma"] - self.sigma0) / self.sigma0
+            if self.cfg.density_relaxation_sign == "compression":
+                excess = np.maximum(excess, 0.0)
+            else:  # "both": an expansion (sigma < sigma0) pulls back too, where the kernel
+                # support is full (a truncated support also has sigma < sigma0); under a
+                # sustained shear the shifting otherwise lets a layer slowly dilate (issue 6)
+                excess[(excess < 0.0) & (b["divr"] < DIVR_FULL)] = 0.0
             excess[b["class"] != K.INTERIOR] = 0.0
             source += relax * self.rho / (dt * dt) * excess
         K.correction_matrices(self.x_all, self.vol_all, self.ff_start, self.ff_j, self.h,
