@@ -276,3 +276,27 @@ def test_mirrored_walls_in_the_implicit_matrix_equal_the_explicit_operator(rng):
     out = np.zeros((nf, 2))
     K.predict_velocity(x, vm, vol, nu, start, j, nf, h, kind, eta2, 0.0, 0.0, dt, out)
     assert_allclose(A @ v[:nf] - b_wall, 2 * v[:nf] - out, rtol=1e-10, atol=1e-12)
+
+
+@pytest.mark.parametrize("sign", ["compression", "both"])
+def test_density_relaxation_sign_acts_on_interior_expansion_only_when_asked(sign):
+    """An interior particle (full support) whose kernel sum is below sigma0 changes the
+    PPE right-hand side with sign = "both", not with the default "compression"; one with
+    a truncated support (div r < 1.95) never does."""
+    text = MUI.format(law="newtonian", params="nu = 1.0e-3",
+                      extra=f"density_relaxation = 0.1\ndensity_relaxation_sign = \"{sign}\"")
+    text = text.replace("boxes = [{ origin = [0.0, -0.003], size = [0.012, 0.003] }]",
+                        "tanks = [{ origin = [0.0, 0.0], size = [0.012, 0.008] }]")
+    sim = Simulation(load_config(None, text=text))
+    f = sim.fluid
+    f.update_neighbors()
+    f.detect_free_surface()
+    f.predict(1e-4)
+    b = f.body
+    full = np.flatnonzero((b["class"] == 0) & (b["divr"] >= 1.95))[0]
+    f.solve_pressure(1e-4)
+    rhs0 = f.rhs.copy()
+    b["sigma"][full] *= 0.99
+    f.solve_pressure(1e-4)
+    changed = np.flatnonzero(np.abs(f.rhs - rhs0) > 1e-9 * np.abs(rhs0).max())
+    assert list(changed) == ([full] if sign == "both" else [])
