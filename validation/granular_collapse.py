@@ -97,6 +97,7 @@ def validate(quick, data_dir, out_dir):
             "aspect_ratio": a, "L0_over_dx": L0 / dx, "runout_sim": r_sim, "runout_ref": r_ref,
             "reference_law": law, "L_inf_m": front, "surge_front_m": sim.fluid.surge_front(),
             "particles_detached": n_detached,
+            "front_at_end_wall": bool(front >= _tank_length(over) - 2.0 * dx),
             "final_height_over_L0": float(x[x[:, 0] < dx, 1].max(initial=0.0) / L0),
             "max_speed_at_end": sim.fluid.max_speed(),
             "dt_advective_median": float(np.median(log["dt_advective"])),
@@ -117,6 +118,11 @@ def validate(quick, data_dir, out_dir):
     return result
 
 
+def _tank_length(over):
+    tank = [o for o in over if o.startswith("walls.tanks=")][0]
+    return float(tank.split("size=[")[1].split(",")[0])
+
+
 def _step_log(run_file):
     import json
 
@@ -131,13 +137,16 @@ def _step_log(run_file):
 def _plot_deposits(deposits, path):
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(len(deposits), 1, figsize=(9, 1.4 * len(deposits) + 0.6),
+    fig, axes = plt.subplots(len(deposits), 1, figsize=(9, 1.5 * len(deposits) + 0.6),
                              layout="constrained", sharex=True)
+    xmax = max(float(x[:, 0].max()) for x in deposits.values()) / L0
     for ax, (label, x) in zip(np.atleast_1d(axes), deposits.items(), strict=True):
         ax.scatter(x[:, 0] / L0, x[:, 1] / L0, s=1, linewidths=0)
         a = float(label.split("=")[1])
         ax.axvline(1.0 + lube_runout(a)[0], color="k", ls="--", lw=0.8)
-        ax.set_aspect("equal")
+        ax.set_xlim(0.0, 1.02 * xmax)
+        # particles thrown high are left out of the frame (counted in particles_detached)
+        ax.set_ylim(-0.05, 1.1 * float(np.percentile(x[:, 1], 99.5)) / L0 + 0.05)
         ax.set_ylabel("y / L0")
         ax.set_title(f"{label}: final deposit (dashed: Lube et al. run-out)", fontsize=8)
     np.atleast_1d(axes)[-1].set_xlabel("x / L0")
