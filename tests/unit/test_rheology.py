@@ -300,3 +300,22 @@ def test_density_relaxation_sign_acts_on_interior_expansion_only_when_asked(sign
     f.solve_pressure(1e-4)
     changed = np.flatnonzero(np.abs(f.rhs - rhs0) > 1e-9 * np.abs(rhs0).max())
     assert list(changed) == ([full] if sign == "both" else [])
+
+
+def test_mu_i_layer_sliding_on_a_rough_bed_stops_on_the_friction_time_scale():
+    """A mu(I) layer launched at 1 m/s over a level no-slip bed (periodic in x) is
+    stopped by basal friction mu(I) p between mu_s and mu_2: its momentum vanishes between
+    1/(mu_2 g) and 1.2/(mu_s g) (a block sliding at mu_s would stop at 1/(mu_s g))."""
+    from pathlib import Path
+
+    case = Path(__file__).resolve().parents[2] / "cases" / "bagnold.toml"
+    sim = Simulation(load_config(case, ["case.gravity=[0.0, -9.81]", "case.dx=0.001"]))
+    f = sim.fluid
+    f.body["v"][:, 0] = 1.0
+    t_fast, t_slow = 1.0 / (0.643 * 9.81), 1.2 / (0.382 * 9.81)
+    while sim.t < t_fast:
+        sim.step()
+    assert f.body["v"][:, 0].mean() > 0.05
+    while sim.t < t_slow:
+        sim.step()
+    assert abs(f.body["v"][:, 0].mean()) < 0.01
