@@ -278,11 +278,50 @@ class Boundary(_Model):
 # ---------------------------------------------------------------------------- fluid
 
 
-class FluidMaterial(_Model):
-    """Incompressible Newtonian fluid: constant density and kinematic viscosity."""
+class MuIParameters(_Model):
+    """mu(I) granular rheology (PHYSICS.md §7) [G 31-35]; see fsi_sph/fluid/rheology.py."""
 
-    rho0: Positive = Field(description="density (kg/m^3)")
+    mu_s: Positive = Field(description="static friction coefficient mu_s (tan of the "
+                           "angle of repose)")
+    mu_2: Positive = Field(description="limiting friction coefficient mu_2 at large I, > mu_s")
+    I0: Positive = Field(description="reference inertial number I0 [G 31, G 41]")
+    d: Positive = Field(description="grain diameter (m) [G 32]")
+    rho_s: Positive = Field(description="grain density (kg/m^3) [G 32]")
+    eta_max: Positive = Field(description="cap on the apparent dynamic viscosity (Pa s)")
+    alpha_r: Positive = Field(0.01, description="regularisation rate alpha_r (1/s) [G 35]")
+    pressure_offset: Literal["half_spacing", "none"] = Field(
+        "half_spacing", description="`half_spacing`: the law's confining pressure is the ISPH "
+        "pressure plus rho |g| dx / 2, the head of the half spacing between the p = 0 "
+        "surface-particle centres and the real free surface; `none`: the ISPH pressure")
+
+    @model_validator(mode="after")
+    def _mu2_gt_mus(self):
+        if self.mu_2 <= self.mu_s:
+            raise ValueError(f"mu_2 = {self.mu_2} must exceed mu_s = {self.mu_s} "
+                             "(mu(I) rises from mu_s to mu_2 [G 31])")
+        return self
+
+
+class FluidMaterial(_Model):
+    """Incompressible fluid: constant density; the viscosity law of the material.
+
+    ``viscosity``: ``newtonian`` (constant ``nu``), ``smagorinsky`` (``nu`` plus the eddy
+    viscosity [F 3], constant from ``[fluid.smagorinsky]`` or its default) or ``mu_i``
+    (apparent viscosity of the mu(I) law [G 31-35] from the table ``mu_i``; ``nu`` unused).
+    """
+
+    rho0: Positive = Field(description="density (kg/m^3); the bulk density for mu_i")
     nu: NonNegative = Field(1.0e-6, description="kinematic viscosity (m^2/s)")
+    viscosity: Literal["newtonian", "smagorinsky", "mu_i"] = Field(
+        "newtonian", description="viscosity law of the material")
+    mu_i: MuIParameters | None = Field(None, description="parameters of the mu_i law")
+
+    @model_validator(mode="after")
+    def _law_parameters(self):
+        if (self.viscosity == "mu_i") != (self.mu_i is not None):
+            raise ValueError(f"viscosity = {self.viscosity!r}: the `mu_i` parameter table is "
+                             "required with viscosity = \"mu_i\" and allowed only then")
+        return self
 
 
 class PPESection(_Model):
@@ -350,11 +389,35 @@ class FluidSection(_Model):
     density_relaxation: Annotated[float, Field(ge=0.0, le=1.0)] = Field(
         0.0, description="coefficient of the compression-only density-error term added to "
         "the PPE source (Asai et al. 2012); 0 = the pure divergence-free projection [F 17]")
+    density_relaxation_sign: Literal["compression", "both"] = Field(
+        "compression", description="which interior density errors the relaxation term acts "
+        "on: `compression` (sigma > sigma0 only, Asai et al.) or `both` (also an expansion, "
+        "sigma < sigma0, so that a sheared layer does not dilate)")
     cfl: Annotated[float, Field(gt=0.0, le=0.5)] = Field(
         0.2, description="advective limit dt = cfl h / |u|max [F 48]")
     dt_max: Positive = Field(1.0, description="upper bound on the fluid time step (s)")
     initial_velocity: Vec2 = Field(
         (0.0, 0.0), description="velocity of every fluid particle at t = 0 (m/s)")
+    viscous_step: Literal["explicit", "implicit"] = Field(
+        "explicit", description="`explicit`: the viscous term of [F 16] at u^n, dt bounded by "
+        "0.125 h^2 / nu_max; `implicit`: (I - dt nu lap) u** = u^n, u* = u** + dt g, solved "
+        "as a sparse system (pyamg-preconditioned CG), no viscous bound on dt "
+        "(fsi_sph/fluid/viscous.py)")
+    viscous_rtol: Annotated[float, Field(gt=0.0, lt=1.0)] = Field(
+        1.0e-8, description="relative residual of the implicit viscous solve")
+    periodic_x: Vec2 | None = Field(
+        None, description="[x_min, x_max] (m): the fluid (and its walls) is periodic in x "
+        "with period x_max - x_min (fsi_sph/fluid/periodic.py); absent: not periodic")
+
+    @model_validator(mode="after")
+    def _fluid_options(self):
+        law = self.material.viscosity
+        if self.smagorinsky is not None and law == "mu_i":
+            raise ValueError("[fluid.smagorinsky] applies to the newtonian and smagorinsky "
+                             "viscosity laws, not to material.viscosity = \"mu_i\"")
+        if self.periodic_x is not None and not self.periodic_x[1] > self.periodic_x[0]:
+            raise ValueError(f"periodic_x = {list(self.periodic_x)}: need x_max > x_min")
+        return self
 
 
 class WallsSection(_Model):
@@ -442,6 +505,13 @@ class Config(_Model):
         if not bodies:
             raise ValueError("the scene has no body: add a [fluid], [solid.NAME] or "
                              "[soil.NAME] table")
+        if self.fluid is not None and self.fluid.periodic_x is not None:
+            period = self.fluid.periodic_x[1] - self.fluid.periodic_x[0]
+            support = 2.0 * self.sph.h_over_dx * self.case.dx
+            if period < 2.0 * support + self.case.dx:
+                raise ValueError(f"fluid.periodic_x: period {period:g} m is shorter than two "
+                                 f"kernel supports plus dx ({2.0 * support + self.case.dx:g} m)"
+                                 ": a particle would meet two images of one neighbour")
         if self.walls is not None and self.fluid is None:
             raise ValueError("[walls] without [fluid]: walls only bound the fluid")
         fluid_kinds = ("pressure", "surge_front", "fluid_stats")
@@ -454,6 +524,8 @@ class Config(_Model):
                     "force is the pair form V_s V_f (p_s + p_f) grad W [F 46-47], which balances "
                     "only against the same form on the fluid side (a difference-form gradient "
                     "beside it pushes the fluid off the structure under a uniform pressure)")
+            if self.fluid.periodic_x is not None:
+                raise ValueError("[coupling] with fluid.periodic_x is not supported")
             for k, name in enumerate(self.coupling.structures):
                 if name not in self.solid:
                     raise ValueError(f"coupling.structures[{k}] = {name!r} names no solid; "
@@ -480,8 +552,13 @@ class Config(_Model):
                 mods.append("walls")
             if self.fluid.shifting is not None:
                 mods.append(f"shifting:{self.fluid.shifting.model}")
-            if self.fluid.smagorinsky is not None:
-                mods.append("smagorinsky")
+            if self.fluid.smagorinsky is not None or self.fluid.material.viscosity != "newtonian":
+                mods.append(self.fluid.material.viscosity if self.fluid.material.viscosity
+                            != "newtonian" else "smagorinsky")
+            if self.fluid.viscous_step == "implicit":
+                mods.append("implicit_viscosity")
+            if self.fluid.periodic_x is not None:
+                mods.append("periodic_x")
         for name in self.solid:
             mods.append(f"tlsph_elastic_solid:{name}")
         if self.coupling is not None:

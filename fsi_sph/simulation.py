@@ -86,9 +86,16 @@ class Simulation:
         if self.fluid is not None:
             cols += ("ppe_iterations", "ppe_residual", "ppe_assemble_s", "ppe_setup_s",
                      "ppe_solve_s", "ppe_rebuilt")
+        if self._dt_limit_columns:  # viscosity law / implicit step: every dt limit [F 48]
+            cols += ("dt_advective", "dt_viscous_explicit", "dt_force", "nu_max",
+                     "viscous_iterations", "viscous_residual")
         if self.coupling is not None:
             cols += ("power_on_structures", "power_on_fluid")
         return cols
+
+    @property
+    def _dt_limit_columns(self):
+        return self.fluid is not None and self.fluid.viscosity_law is not None
 
     def _timed(self, phase, fn, *args):
         t0 = time.perf_counter()
@@ -270,6 +277,10 @@ class Simulation:
                     st = self.fluid.last_stats
                     row += [st.iterations, st.residual, st.assemble_time, st.setup_time,
                             st.solve_time, float(st.rebuilt)]
+                if self._dt_limit_columns:
+                    lim, vs = self.fluid.dt_limits, self.fluid.viscous_stats
+                    row += [lim["advective"], lim["viscous"], lim["force"], lim["nu_max"],
+                            vs.iterations, vs.residual]
                 if self.coupling is not None:
                     row += [self.coupling.power_structure, self.coupling.power_fluid]
                 step_rows.append(row)

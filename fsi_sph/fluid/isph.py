@@ -152,6 +152,21 @@ class IncompressibleFluid:
         self.grad_p = np.zeros((self.nf, 2))
         self.grad_v = np.zeros((self.nf, 2, 2))
         self.L = np.zeros((self.nf, 2, 2))
+        # viscosity law, implicit viscous step, periodicity (rheology.py, viscous.py,
+        # periodic.py); the plain explicit Newtonian fluid takes none of these paths
+        self.viscosity_law = None
+        if cfg.material.viscosity != "newtonian" or cfg.viscous_step == "implicit":
+            from fsi_sph.fluid.rheology import ViscosityLaw
+            from fsi_sph.fluid.viscous import ViscousStats
+
+            self.viscosity_law = ViscosityLaw(cfg, dx, gravity)
+            self.viscous_stats = ViscousStats()
+        self.dt_limits = {}
+        self.periodic = None
+        if cfg.periodic_x is not None:
+            from fsi_sph.fluid.periodic import Periodic
+
+            self.periodic = Periodic(cfg.periodic_x, self)
         self.update_neighbors()
         warm_up(self.kernel)
 
@@ -225,6 +240,8 @@ class IncompressibleFluid:
         self.x_all[:nf] = self.body["x"]
         self.v_all[:nf] = self.body["v"]
         self.p_all[:nf] = self.body["p"]
+        if self.periodic is not None:
+            self.periodic.sync(self)
 
     # ------------------------------------------------------------------ step verbs
     def stable_dt(self):
@@ -235,18 +252,22 @@ class IncompressibleFluid:
         amax = math.sqrt(float(np.max(np.einsum("ij,ij->i", b["a"], b["a"]), initial=0.0)))
         amax = max(amax, float(np.hypot(*self.gravity)))
         dt = self.cfg.dt_max
-        if vmax > 0.0:
-            dt = min(dt, self.cfg.cfl * self.h / vmax)
         numax = float(np.max(b["nu"], initial=0.0))
-        if numax > 0.0:
-            dt = min(dt, 0.125 * self.h * self.h / numax)
-        if amax > 0.0:
-            dt = min(dt, 0.25 * math.sqrt(self.h / amax))
+        lim = self.dt_limits  # every limit, recorded (the implicit step drops the viscous one)
+        lim["advective"] = self.cfg.cfl * self.h / vmax if vmax > 0.0 else math.inf
+        lim["viscous"] = 0.125 * self.h * self.h / numax if numax > 0.0 else math.inf
+        lim["force"] = 0.25 * math.sqrt(self.h / amax) if amax > 0.0 else math.inf
+        lim["nu_max"] = numax
+        dt = min(dt, lim["advective"], lim["force"])
+        if self.cfg.viscous_step == "explicit":
+            dt = min(dt, lim["viscous"])
         return dt
 
     def update_neighbors(self):
         """CSR neighbour lists at the current positions: fluid rows over fluid and wall
         sources (``ff_*``), wall rows over fluid sources (``wf_*``)."""
+        if self.periodic is not None:
+            self.periodic.rebuild(self)
         self._sync()
         r = SUPPORT * self.h
         xf = self.x_all[:self.nf]
@@ -255,6 +276,8 @@ class IncompressibleFluid:
             self.wf_start, self.wf_j = find_neighbors(self.x_all[self.nf:], xf, r)
         else:
             self.wf_start, self.wf_j = np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64)
+        if self.periodic is not None:
+            self.periodic.boundary_lists(self)
 
     def detect_free_surface(self):
         """``div r``, ``alpha`` [F 21], classes and normals [F 27-28] of the fluid rows."""
@@ -286,6 +309,10 @@ class IncompressibleFluid:
 
     def predict(self, dt):
         """Intermediate velocity [F 16] (with the Smagorinsky viscosity [F 3] if enabled)."""
+        if self.viscosity_law is not None:  # mu(I) or the implicit step (viscous.py)
+            from fsi_sph.fluid.viscous import predict
+
+            return predict(self, dt)
         b = self.body
         self._sync()
         if self.cfg.smagorinsky is not None:
@@ -322,7 +349,10 @@ class IncompressibleFluid:
         # flux would be counted twice, once through div u* and once through the extrapolated
         # wall pressure, and a tank at rest would not stay at rest.
         # A moving boundary (structure particle) likewise enters with u_b + dt (g - a_b).
-        self.velocity_divergence(self.v_star, self.v_b + dt * self.g_b, self.div)
+        vb_star = self.v_b + dt * self.g_b
+        if self.periodic is not None:
+            self.periodic.boundary_star(self, vb_star)
+        self.velocity_divergence(self.v_star, vb_star, self.div)
         source = -self.rho / dt * self.div
         relax = self.cfg.density_relaxation
         if relax > 0.0:
@@ -330,7 +360,13 @@ class IncompressibleFluid:
             # al. 2012): lap p = rho div u* / dt + relax rho (sigma0 - sigma) / (sigma0 dt^2),
             # applied where sigma > sigma0 in the interior, so that particles that have
             # drifted together (a divergence-free projection does not see it) are pushed apart.
-            excess = np.maximum(b["sigma"] - self.sigma0, 0.0) / self.sigma0
+            excess = (b["sigma"] - self.sigma0) / self.sigma0
+            if self.cfg.density_relaxation_sign == "compression":
+                excess = np.maximum(excess, 0.0)
+            else:  # "both": an expansion (sigma < sigma0) pulls back too, where the kernel
+                # support is full (a truncated support also has sigma < sigma0); under a
+                # sustained shear the shifting otherwise lets a layer slowly dilate (issue 6)
+                excess[(excess < 0.0) & (b["divr"] < DIVR_FULL)] = 0.0
             excess[b["class"] != K.INTERIOR] = 0.0
             source += relax * self.rho / (dt * dt) * excess
         K.correction_matrices(self.x_all, self.vol_all, self.ff_start, self.ff_j, self.h,
@@ -343,6 +379,8 @@ class IncompressibleFluid:
                           self.wf_start, self.wf_j, self.nf, self.nw, self.h, self.kernel,
                           self.eta2, self.lap_scale, self.diag_ref, self.rho, self.g_b,
                           self.implicit)
+        if self.periodic is not None:
+            A, rhs = self.periodic.constrain(A, rhs, self.diag_ref)
         t1 = time.perf_counter()
         p, stats = self.ppe.solve(A, rhs, self.p_all, self.nf)
         stats.assemble_time = t1 - t0
@@ -362,7 +400,7 @@ class IncompressibleFluid:
         ``interface_force`` (N/m per fluid particle, the pair force [F 46-47] that the
         structures receive with the opposite sign) is applied instead."""
         b = self.body
-        jmax = self.nf + self.n_walls
+        jmax = self.nf + self.nw - self.ns  # fluid, walls (and periodic images)
         if self.cfg.pressure_gradient == "conservative":
             K.pressure_gradient(self.x_all, self.p_all, self.vol_all, self.ff_start, self.ff_j,
                                 self.nf, self.h, self.kernel, self.grad_scale, jmax,

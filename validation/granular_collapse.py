@@ -1,0 +1,171 @@
+"""Collapse of 2D granular columns (mu(I) law) against the run-out scaling of Lube et al.
+
+Lube, Huppert, Sparks & Freundt (2005), Phys. Rev. E 72, 041301 (quasi-2D channel):
+``(L_inf - L0) / L0 = 1.2 a`` for ``a < 1.8`` and ``1.9 a^(2/3)`` for ``a > 2.8``,
+``a = H0 / L0``. Between 1.8 and 2.8 the paper gives no law; this script takes the linear
+interpolation between the two laws' values at a = 1.8 and a = 2.8 there (so a = 2 is
+compared with 2.48, flagged in ``values.reference_law``).
+
+Columns a = 0.5, 1, 2, 4, 8 of width L0 = 0.1 m (cases/granular_collapse.toml; the
+aspect ratio, resolution, tank and duration are set here by overrides). Resolution: about
+800 particles per column (``--quick``) or 3200. ``L_inf`` is the front of the deposit at
+``t_end``: the largest x of the largest connected cluster of particles (neighbours closer
+than 1.5 dx), so particles and small clusters thrown ahead of the deposit do not count
+(their number is recorded, and the ``surge_front`` probe's value too), measured from the
+back wall at x = 0.
+
+``errors.runout_pct_aA`` = 100 |r_sim - r_ref| / r_ref with ``r = (L_inf - L0) / L0``;
+``errors.runout_max_pct`` is the largest over the aspect ratios. Written: the final deposits
+(``granular_collapse_deposits.png``) and the run-out against a.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from validation.common import record, run_case, write_outputs
+
+CASE = Path(__file__).resolve().parents[1] / "cases" / "granular_collapse.toml"
+ASPECTS = [0.5, 1.0, 2.0, 4.0, 8.0]
+L0 = 0.1
+PARTICLES = {True: 800, False: 3200}
+
+
+def lube_runout(a):
+    """(L_inf - L0) / L0 of Lube et al. (2005) and which law gave it."""
+    if a < 1.8:
+        return 1.2 * a, "1.2 a"
+    if a > 2.8:
+        return 1.9 * a ** (2.0 / 3.0), "1.9 a^(2/3)"
+    lo, hi = 1.2 * 1.8, 1.9 * 2.8 ** (2.0 / 3.0)
+    return lo + (hi - lo) * (a - 1.8) / 1.0, "interpolated between the laws (1.8 < a < 2.8)"
+
+
+def deposit_front(x, dx):
+    """Largest x of the largest connected cluster of particles (neighbours closer than
+    1.5 dx): the continuous deposit, without particles or clusters thrown ahead of it."""
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import connected_components
+
+    from fsi_sph.neighbors import find_neighbors
+
+    start, j = find_neighbors(x, x, 1.5 * dx, exclude_self=True)
+    rows = np.repeat(np.arange(len(x)), np.diff(start))
+    graph = sp.csr_array((np.ones(len(j)), (rows, j)), shape=(len(x), len(x)))
+    _, label = connected_components(graph, directed=False)
+    main = label == np.argmax(np.bincount(label))
+    return float(x[main, 0].max()), int(len(x) - main.sum())
+
+
+def overrides(a, n_particles):
+    """--set overrides of the case for aspect ratio ``a``."""
+    h0 = a * L0
+    n_across = max(int(round(math.sqrt(n_particles / a))), 8)
+    dx = L0 / n_across
+    ref, _ = lube_runout(a)
+    length = L0 * (1.0 + 1.6 * ref) + 0.1
+    t_end = max(0.6, 6.0 * math.sqrt(h0 / 9.81))
+    # the guard's domain: generous, so that a few particles thrown high (recorded as
+    # detached from the deposit) do not stop the run
+    return dx, [f"case.dx={dx!r}", f"case.t_end={t_end:.4f}", "case.output_every=0.1",
+                f"fluid.blocks=[{{origin=[0.0, 0.0], size=[{L0}, {h0}]}}]",
+                f"walls.tanks=[{{origin=[0.0, 0.0], size=[{length:.4f}, {1.2 * h0:.4f}]}}]",
+                f"guard.domain={{origin=[-1.0, -1.0], size=[{length + 2.0:.4f}, 20.0]}}"]
+
+
+def validate(quick, data_dir, out_dir):
+    out_dir = Path(out_dir)
+    records = []
+    deposits = {}
+    runouts = []
+    for a in ASPECTS:
+        dx, over = overrides(a, PARTICLES[quick])
+        label = f"a={a:g}"
+        sim, summary = run_case(CASE, over, out_dir / label)
+        x = sim.fluid.body["x"].copy()
+        front, n_detached = deposit_front(x, dx)
+        r_sim = (front - L0) / L0
+        r_ref, law = lube_runout(a)
+        err = 100.0 * abs(r_sim - r_ref) / r_ref
+        deposits[label] = x
+        runouts.append((a, r_sim, r_ref))
+        log = _step_log(summary["output"])
+        records.append(record(label, dx, summary, {f"runout_pct_a{a:g}": err}, {
+            "aspect_ratio": a, "L0_over_dx": L0 / dx, "runout_sim": r_sim, "runout_ref": r_ref,
+            "reference_law": law, "L_inf_m": front, "surge_front_m": sim.fluid.surge_front(),
+            "particles_detached": n_detached,
+            "front_at_end_wall": bool(front >= _tank_length(over) - 2.0 * dx),
+            "final_height_over_L0": float(x[x[:, 0] < dx, 1].max(initial=0.0) / L0),
+            "max_speed_at_end": sim.fluid.max_speed(),
+            "dt_advective_median": float(np.median(log["dt_advective"])),
+            "dt_viscous_explicit_median": float(np.median(log["dt_viscous_explicit"])),
+            "dt_used_median": float(np.median(log["dt"])),
+            "viscous_iterations_mean": float(np.mean(log["viscous_iterations"])),
+            "t_end_s": sim.t}))
+    worst = max(r["errors"][f"runout_pct_a{r['values']['aspect_ratio']:g}"] for r in records)
+    for r in records:
+        r["errors"]["runout_max_pct"] = worst
+    result = {"case": "granular_collapse",
+              "reference": "Lube et al. 2005 (2D columns): (Linf-L0)/L0 = 1.2 a (a<1.8), "
+                           "1.9 a^(2/3) (a>2.8)",
+              "records": records}
+    write_outputs(result, out_dir, error_keys=["runout_max_pct"])
+    _plot_deposits(deposits, out_dir / "granular_collapse_deposits.png")
+    _plot_runout(runouts, out_dir / "granular_collapse_runout.png")
+    return result
+
+
+def _tank_length(over):
+    tank = [o for o in over if o.startswith("walls.tanks=")][0]
+    return float(tank.split("size=[")[1].split(",")[0])
+
+
+def _step_log(run_file):
+    import json
+
+    import h5py
+
+    with h5py.File(run_file, "r") as f:
+        cols = json.loads(f["steps"].attrs["columns"])
+        s = f["steps"][()]
+    return {c: s[:, k] for k, c in enumerate(cols)}
+
+
+def _plot_deposits(deposits, path):
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(len(deposits), 1, figsize=(9, 1.5 * len(deposits) + 0.6),
+                             layout="constrained", sharex=True)
+    xmax = max(float(x[:, 0].max()) for x in deposits.values()) / L0
+    for ax, (label, x) in zip(np.atleast_1d(axes), deposits.items(), strict=True):
+        ax.scatter(x[:, 0] / L0, x[:, 1] / L0, s=1, linewidths=0)
+        a = float(label.split("=")[1])
+        ax.axvline(1.0 + lube_runout(a)[0], color="k", ls="--", lw=0.8)
+        ax.set_xlim(0.0, 1.02 * xmax)
+        # particles thrown high are left out of the frame (counted in particles_detached)
+        ax.set_ylim(-0.05, 1.1 * float(np.percentile(x[:, 1], 99.5)) / L0 + 0.05)
+        ax.set_ylabel("y / L0")
+        ax.set_title(f"{label}: final deposit (dashed: Lube et al. run-out)", fontsize=8)
+    np.atleast_1d(axes)[-1].set_xlabel("x / L0")
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+
+
+def _plot_runout(runouts, path):
+    import matplotlib.pyplot as plt
+
+    a = np.array([r[0] for r in runouts])
+    fig, ax = plt.subplots(figsize=(5, 4), layout="constrained")
+    aa = np.linspace(0.3, 10, 200)
+    ax.loglog(aa[aa < 1.8], 1.2 * aa[aa < 1.8], "k-", label="Lube et al. 1.2 a")
+    ax.loglog(aa[aa > 2.8], 1.9 * aa[aa > 2.8] ** (2 / 3), "k--", label="Lube et al. 1.9 a^(2/3)")
+    ax.loglog(a, [r[1] for r in runouts], "o", label="ISPH mu(I)")
+    ax.set_xlabel("a = H0 / L0")
+    ax.set_ylabel("(L_inf - L0) / L0")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
