@@ -516,6 +516,24 @@ def wall_normals(xw, vol, nbr_start, nbr_j, h, kind, out_n):
             out_n[i, 1] = 0.0
 
 
+@njit(cache=True)
+def nearest_source(x, nbr_start, nbr_j, i, j_lo, j_hi):
+    """The neighbour ``j_lo <= j < j_hi`` of row ``i`` nearest to it (-1 if none)."""
+    best = 1e300
+    jb = -1
+    for k in range(nbr_start[i], nbr_start[i + 1]):
+        j = nbr_j[k]
+        if j < j_lo or j >= j_hi:
+            continue
+        d0 = x[i, 0] - x[j, 0]
+        d1 = x[i, 1] - x[j, 1]
+        r2 = d0 * d0 + d1 * d1
+        if r2 < best:
+            best = r2
+            jb = j
+    return jb
+
+
 @njit(cache=True, parallel=True)
 def no_penetration(x, nbr_start, nbr_j, nf, wall_n, gap, v_old, v, jmax):
     """Kinematic wall guard: a fluid particle closer than ``gap`` (along the wall normal) to
@@ -525,18 +543,7 @@ def no_penetration(x, nbr_start, nbr_j, nf, wall_n, gap, v_old, v, jmax):
     into the floor; elsewhere the wall pressure keeps the particles away and this does
     nothing."""
     for i in prange(nf):
-        best = 1e300
-        jb = -1
-        for k in range(nbr_start[i], nbr_start[i + 1]):
-            j = nbr_j[k]
-            if j < nf or j >= jmax:
-                continue
-            d0 = x[i, 0] - x[j, 0]
-            d1 = x[i, 1] - x[j, 1]
-            r2 = d0 * d0 + d1 * d1
-            if r2 < best:
-                best = r2
-                jb = j
+        jb = nearest_source(x, nbr_start, nbr_j, i, nf, jmax)
         if jb < 0:
             continue
         n0 = wall_n[jb - nf, 0]
@@ -565,18 +572,7 @@ def structure_guard(x, nbr_start, nbr_j, nf, j0, normals, v_b, gap, v_old, v, ou
         out_dv[i, 0] = 0.0
         out_dv[i, 1] = 0.0
         out_row[i] = -1
-        best = 1e300
-        jb = -1
-        for k in range(nbr_start[i], nbr_start[i + 1]):
-            j = nbr_j[k]
-            if j < j0:
-                continue
-            d0 = x[i, 0] - x[j, 0]
-            d1 = x[i, 1] - x[j, 1]
-            r2 = d0 * d0 + d1 * d1
-            if r2 < best:
-                best = r2
-                jb = j
+        jb = nearest_source(x, nbr_start, nbr_j, i, j0, x.shape[0])
         if jb < 0:
             continue
         b = jb - j0
