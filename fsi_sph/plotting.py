@@ -106,11 +106,17 @@ def error_vs_time(records, error_keys, title, path, marks=None):
     resolution (labelled). ``marks``: {label: {error_key: value}} drawn as horizontal lines
     (errors reported by other codes, no time known)."""
     fig, ax = plt.subplots(figsize=(6.4, 4.4), layout="constrained")
-    t = np.array([r["wall_time_s"] for r in records])
+    t_all = np.array([r["wall_time_s"] for r in records])
+    t = t_all[np.isfinite(t_all)] if np.isfinite(t_all).any() else np.array([1.0])
     for key in error_keys:
-        e = np.array([abs(r["errors"][key]) for r in records])
-        ax.loglog(t, np.maximum(e, 1e-3), "o-", label=key)
-        for r, ti, ei in zip(records, t, e, strict=True):
+        # records that lack an error (e.g. one aspect ratio per record) are left out
+        have = [r for r in records if key in r["errors"] and np.isfinite(r["wall_time_s"])]
+        if not have:
+            continue
+        tk = np.array([r["wall_time_s"] for r in have])
+        e = np.array([abs(r["errors"][key]) for r in have])
+        ax.loglog(tk, np.maximum(e, 1e-3), "o-", label=key)
+        for r, ti, ei in zip(have, tk, e, strict=True):
             ax.annotate(r["label"], (ti, max(ei, 1e-3)), textcoords="offset points",
                         xytext=(4, 4), fontsize=8)
     for lab, vals in (marks or {}).items():

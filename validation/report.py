@@ -19,8 +19,15 @@ HERE = Path(__file__).resolve().parent
 def load_results(results_dir) -> dict:
     """{name: result} of every ``results_dir/NAME/result.json``."""
     out = {}
-    for p in sorted(Path(results_dir).glob("*/result.json")):
-        out[p.parent.name] = json.loads(p.read_text())
+    for folder in sorted(p for p in Path(results_dir).iterdir() if p.is_dir()):
+        # result.json, or (the soil validations) the one JSON record file of the folder
+        candidates = [folder / "result.json"] + sorted(folder.glob("*.json"))
+        for p in candidates:
+            if p.is_file():
+                res = json.loads(p.read_text())
+                if isinstance(res, dict) and "records" in res:
+                    out[folder.name] = res
+                    break
     return out
 
 
@@ -62,7 +69,7 @@ def write_report(results: dict, path=HERE / "REPORT.md", fig_dir=HERE / "report"
             lines += [status_table(res), f"failed_rows = {res['values']['failed_rows']}", ""]
             continue
         lines.append(markdown_table(res))
-        keys = list(res["records"][0]["errors"])
+        keys = list(dict.fromkeys(k for r in res["records"] for k in r["errors"]))
         fig = fig_dir / f"{name}.png"
         error_vs_time(res["records"], keys, f"{name}: error vs wall time", fig,
                       marks=res.get("marks"))

@@ -65,3 +65,21 @@ def test_report_only_rewrites_from_stored_results(tmp_path, monkeypatch):
     assert "## demo" in text and "load average 3.5" in text
     assert "No stored result yet" in text  # every other validation is listed as missing
     assert main(["validate", "--report", "--out", str(tmp_path / "empty")]) == 2
+
+
+def test_load_results_takes_a_folder_s_record_file(tmp_path):
+    import json
+
+    (tmp_path / "soil").mkdir()
+    (tmp_path / "soil" / "slope.json").write_text(json.dumps(_result()))
+    (tmp_path / "soil" / "other.json").write_text(json.dumps({"not": "a record"}))
+    (tmp_path / "empty").mkdir()
+    assert list(load_results(tmp_path)) == ["soil"]
+
+
+def test_plot_skips_errors_a_record_lacks(tmp_path):
+    from fsi_sph.plotting import error_vs_time
+
+    recs = _result()["records"]
+    recs[1]["errors"] = {"other_pct": 2.0}
+    assert error_vs_time(recs, ["period_pct", "other_pct"], "t", tmp_path / "p.png").exists()
