@@ -19,6 +19,8 @@ HERE = Path(__file__).resolve().parent
 def load_results(results_dir) -> dict:
     """{name: result} of every ``results_dir/NAME/result.json``."""
     out = {}
+    if not Path(results_dir).is_dir():
+        return out
     for folder in sorted(p for p in Path(results_dir).iterdir() if p.is_dir()):
         # result.json, or (the soil validations) the one JSON record file of the folder
         candidates = [folder / "result.json"] + sorted(folder.glob("*.json"))
