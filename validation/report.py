@@ -42,8 +42,8 @@ def write_report(results: dict, path=HERE / "REPORT.md", fig_dir=HERE / "report"
     fig_dir.mkdir(parents=True, exist_ok=True)
     lines = ["# Validation report", "",
              f"Generated {datetime.datetime.now().isoformat(timespec='seconds')} by "
-             "`fsi-sph validate --all` (regenerate with the same command; `--quick` runs the "
-             "coarse end of each ladder). Errors are signed percentages unless the name says "
+             "`fsi-sph validate --all` or `--report` (regenerate with the same command; "
+             "`--quick` runs the coarse end of each ladder). Errors are signed percentages unless the name says "
              "otherwise; wall time is the whole run (set-up + stepping); throughput is "
              "particle-steps per second of the stepping loop. `fsi-sph validate --report` "
              "rewrites this file from the stored results without running anything.", ""]
@@ -57,11 +57,12 @@ def write_report(results: dict, path=HERE / "REPORT.md", fig_dir=HERE / "report"
         lines += [f"## {name}", "", f"Reference: {res['reference']}", ""]
         m = res.get("machine") or {}
         if m:
+            load = m.get("load_average_1min")
+            load = f"{load:.1f}" if load is not None else "(not recorded)"
             lines += [f"Measured {m.get('date', '(date not recorded)')}, git "
                       f"{m.get('git_sha')}, {m.get('numba_threads')} numba threads, load "
-                      f"average {m.get('load_average_1min', float('nan')):.1f} at the end "
-                      f"({m.get('cpus')} CPUs; a load above the CPU count means the wall "
-                      "times are inflated by other work).", ""]
+                      f"average {load} at the end ({m.get('cpus')} CPUs; a load above the "
+                      "CPU count means the wall times are inflated by other work).", ""]
         if not res["records"]:
             lines += ["(no records)", ""]
             continue
