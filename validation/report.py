@@ -44,9 +44,10 @@ def write_report(results: dict, path=HERE / "REPORT.md", fig_dir=HERE / "report"
              f"Generated {datetime.datetime.now().isoformat(timespec='seconds')} by "
              "`fsi-sph validate --all` or `--report` (regenerate with the same command; "
              "`--quick` runs the coarse end of each ladder). Errors are signed percentages "
-             "unless the name says otherwise; wall time is the whole run (set-up + stepping); throughput is "
-             "particle-steps per second of the stepping loop. `fsi-sph validate --report` "
-             "rewrites this file from the stored results without running anything.", ""]
+             "unless the name says otherwise; wall time is the whole run (set-up + "
+             "stepping); throughput is particle-steps per second of the stepping loop. "
+             "`fsi-sph validate --report` rewrites this file from the stored results "
+             "without running anything.", ""]
     machine = next((r.get("machine") for r in results.values() if r.get("machine")), None)
     if machine:
         v = machine.get("versions", {})
