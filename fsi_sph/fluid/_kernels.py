@@ -535,47 +535,26 @@ def nearest_source(x, nbr_start, nbr_j, i, j_lo, j_hi):
 
 
 @njit(cache=True, parallel=True)
-def no_penetration(x, nbr_start, nbr_j, nf, wall_n, gap, v_old, v, jmax):
-    """Kinematic wall guard: a fluid particle closer than ``gap`` (along the wall normal) to
-    its nearest wall particle (sources ``nf <= j < jmax``) loses the velocity components (of
-    ``v_old`` and ``v``) that point into the wall. A free-surface particle has a Dirichlet PPE
-    row, which imposes no continuity constraint, so nothing else stops a thin jet from sinking
-    into the floor; elsewhere the wall pressure keeps the particles away and this does
-    nothing."""
-    for i in prange(nf):
-        jb = nearest_source(x, nbr_start, nbr_j, i, nf, jmax)
-        if jb < 0:
-            continue
-        n0 = wall_n[jb - nf, 0]
-        n1 = wall_n[jb - nf, 1]
-        dn = (x[i, 0] - x[jb, 0]) * n0 + (x[i, 1] - x[jb, 1]) * n1
-        if (n0 != 0.0 or n1 != 0.0) and dn < gap:
-            un = v[i, 0] * n0 + v[i, 1] * n1
-            if un < 0.0:
-                v[i, 0] -= un * n0
-                v[i, 1] -= un * n1
-            un = v_old[i, 0] * n0 + v_old[i, 1] * n1
-            if un < 0.0:
-                v_old[i, 0] -= un * n0
-                v_old[i, 1] -= un * n1
+def boundary_guard(x, nbr_start, nbr_j, nf, j_lo, j_hi, normals, v_b, gap, v_old, v, out_dv,
+                   out_row):
+    """Kinematic guard at a boundary (sources ``j_lo <= j < j_hi``: the walls, or the moving
+    structures; ``normals`` and boundary velocities ``v_b`` indexed from ``j_lo``).
 
-
-@njit(cache=True, parallel=True)
-def structure_guard(x, nbr_start, nbr_j, nf, j0, normals, v_b, gap, v_old, v, out_dv, out_row):
-    """Kinematic guard at moving structure boundaries (sources ``j >= j0``; ``normals`` and
-    boundary velocities ``v_b`` indexed from ``j0``): a fluid particle closer than ``gap``
-    (along the normal) to its nearest structure particle loses the part of its velocity
-    relative to that particle which points into the structure. The velocity change of ``v``
-    and the row of the structure particle go to ``out_dv`` and ``out_row`` (-1: none) so that
-    the caller can give the structure the opposite impulse (action equals reaction)."""
+    A fluid particle closer than ``gap`` (along the normal) to its nearest boundary particle
+    loses the part of its velocity relative to that particle that points into the boundary
+    (in ``v_old`` and ``v``). A free-surface particle has a Dirichlet PPE row, which imposes
+    no continuity constraint, so nothing else stops a thin jet from sinking into a wall or
+    running into a structure; elsewhere the boundary pressure keeps the particles away and
+    this does nothing. The change of ``v`` and the boundary row go to ``out_dv`` and
+    ``out_row`` (-1: none), so that a moving boundary can get the opposite impulse."""
     for i in prange(nf):
         out_dv[i, 0] = 0.0
         out_dv[i, 1] = 0.0
         out_row[i] = -1
-        jb = nearest_source(x, nbr_start, nbr_j, i, j0, x.shape[0])
+        jb = nearest_source(x, nbr_start, nbr_j, i, j_lo, j_hi)
         if jb < 0:
             continue
-        b = jb - j0
+        b = jb - j_lo
         n0 = normals[b, 0]
         n1 = normals[b, 1]
         dn = (x[i, 0] - x[jb, 0]) * n0 + (x[i, 1] - x[jb, 1]) * n1

@@ -27,44 +27,41 @@ import scipy.sparse.linalg as spla
 from numba import njit, prange
 
 
+@njit(cache=True)
+def _row_dot(indptr, indices, data, x, i):
+    """Row ``i`` of ``A x``."""
+    s = 0.0
+    for k in range(indptr[i], indptr[i + 1]):
+        s += data[k] * x[indices[k]]
+    return s
+
+
 @njit(cache=True, parallel=True)
 def spmv(indptr, indices, data, x, out):
     """``out = A x`` for a CSR matrix."""
     for i in prange(out.shape[0]):
-        s = 0.0
-        for k in range(indptr[i], indptr[i + 1]):
-            s += data[k] * x[indices[k]]
-        out[i] = s
+        out[i] = _row_dot(indptr, indices, data, x, i)
 
 
 @njit(cache=True, parallel=True)
 def residual(indptr, indices, data, x, b, out):
     """``out = b - A x``."""
     for i in prange(out.shape[0]):
-        s = b[i]
-        for k in range(indptr[i], indptr[i + 1]):
-            s -= data[k] * x[indices[k]]
-        out[i] = s
+        out[i] = b[i] - _row_dot(indptr, indices, data, x, i)
 
 
 @njit(cache=True)
 def spmv_serial(indptr, indices, data, x, out):
     """:func:`spmv` on one thread (small levels: no parallel region to start)."""
     for i in range(out.shape[0]):
-        s = 0.0
-        for k in range(indptr[i], indptr[i + 1]):
-            s += data[k] * x[indices[k]]
-        out[i] = s
+        out[i] = _row_dot(indptr, indices, data, x, i)
 
 
 @njit(cache=True)
 def residual_serial(indptr, indices, data, x, b, out):
     """:func:`residual` on one thread."""
     for i in range(out.shape[0]):
-        s = b[i]
-        for k in range(indptr[i], indptr[i + 1]):
-            s -= data[k] * x[indices[k]]
-        out[i] = s
+        out[i] = b[i] - _row_dot(indptr, indices, data, x, i)
 
 
 @njit(cache=True)

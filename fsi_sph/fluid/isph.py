@@ -137,6 +137,8 @@ class IncompressibleFluid:
         self.p_all = np.zeros(n)
         self.wall_n = np.zeros((self.nw, 2))
         self.guard_force = np.zeros((self.ns, 2))
+        self._guard_dv = np.zeros((self.nf, 2))  # work arrays of the kinematic guard
+        self._guard_row = np.zeros(self.nf, dtype=np.int64)
         if self.walls is not None:
             xw = self.walls.body["x"]
             self.x_all[self.nf:self.nf + self.n_walls] = xw
@@ -202,10 +204,10 @@ class IncompressibleFluid:
         for s in self.structures:
             xs = s.body["x"]
             self.x_all[k:k + s.body.n] = xs
-            # outward surface normals of the structure over its own particles (zero inside)
-            ss, sj = find_neighbors(xs, xs, SUPPORT * self.h, exclude_self=True)
-            K.wall_normals(xs, self.vol_all[k:k + s.body.n], ss, sj, self.h, self.kernel,
-                           self.wall_n[k - self.nf:k - self.nf + s.body.n])
+            # outward surface normals of the structure over its own particles (zero inside),
+            # with the body's total-Lagrangian neighbour pairs (fixed; no search per step)
+            K.wall_normals(xs, self.vol_all[k:k + s.body.n], s.nbr_start, s.nbr_j, self.h,
+                           self.kernel, self.wall_n[k - self.nf:k - self.nf + s.body.n])
             k += s.body.n
         self.v_b[self.n_walls:] = v_bar
         self.v_all[self.nf + self.n_walls:] = v_bar
@@ -415,29 +417,30 @@ class IncompressibleFluid:
         if interface_force is not None:
             v += (dt / b["m"])[:, None] * interface_force
         b["a"][:] = (v - self.v_old) / dt
-        if self.n_walls:
-            K.no_penetration(self.x_all, self.ff_start, self.ff_j, self.nf, self.wall_n,
-                             0.5 * self.dx, self.v_old, v, jmax)
-        if self.ns:
-            self._structure_guard(dt, v)
+        self._guard(dt, v)
         b["x"] += 0.5 * dt * (self.v_old + v)
 
-    def _structure_guard(self, dt, v):
-        """The kinematic guard at the coupled structures' surfaces (a free-surface fluid
-        particle has a Dirichlet PPE row, so no pressure stops it from running into a
-        structure); the fluid's momentum change goes to the structure particles as
-        ``self.guard_force`` (N/m per structure particle), opposite and equal."""
-        j0 = self.nf + self.n_walls
-        dv = np.empty((self.nf, 2))
-        row = np.empty(self.nf, dtype=np.int64)
-        K.structure_guard(self.x_all, self.ff_start, self.ff_j, self.nf, j0,
-                          self.wall_n[self.n_walls:], self.v_b[self.n_walls:], 0.5 * self.dx,
-                          self.v_old, v, dv, row)
-        self.guard_force[:] = 0.0
-        hit = row >= 0
-        if hit.any():
-            np.add.at(self.guard_force, row[hit],
-                      -(self.body["m"][hit] / dt)[:, None] * dv[hit])
+    def _guard(self, dt, v):
+        """The kinematic guard (:func:`_kernels.boundary_guard`) at the fixed walls, then at
+        the coupled structures' surfaces; there the fluid's momentum change goes to the
+        structure particles as ``self.guard_force`` (N/m per structure particle), opposite
+        and equal."""
+        nf = self.nf
+        nwall = self.nw - self.ns  # the walls (and their periodic images), then structures
+        gap = 0.5 * self.dx
+        if nwall:
+            K.boundary_guard(self.x_all, self.ff_start, self.ff_j, nf, nf, nf + nwall,
+                             self.wall_n[:nwall], self.v_b[:nwall], gap, self.v_old, v,
+                             self._guard_dv, self._guard_row)
+        if self.ns:
+            K.boundary_guard(self.x_all, self.ff_start, self.ff_j, nf, nf + nwall,
+                             nf + self.nw, self.wall_n[nwall:], self.v_b[nwall:], gap,
+                             self.v_old, v, self._guard_dv, self._guard_row)
+            self.guard_force[:] = 0.0
+            hit = self._guard_row >= 0
+            if hit.any():
+                np.add.at(self.guard_force, self._guard_row[hit],
+                          -(self.body["m"][hit] / dt)[:, None] * self._guard_dv[hit])
 
     # ------------------------------------------------------------------ diagnostics
     def kinetic_energy(self):
@@ -525,9 +528,8 @@ def warm_up(kind):
         K.shift_vectors(x, v, vol, start, j, n, h, kind, model, 1.0, 0.0, 0.1, cls, nrm, dr)
     K.apply_shift(dr, gp, gv, True, x, p, v)
     K.wall_normals(x, vol, start, j, h, kind, nrm)
-    K.no_penetration(x, start, j, n, nrm, 0.5, v, vs, n)
-    K.structure_guard(x, start, j, n, n, nrm, nrm, 0.5, v, vs, np.zeros((n, 2)),
-                      np.zeros(n, dtype=np.int64))
+    K.boundary_guard(x, start, j, n, n, n, nrm, nrm, 0.5, v, vs, np.zeros((n, 2)),
+                     np.zeros(n, dtype=np.int64))
     amg.warm_up()
     out = np.zeros(1)
     s1, j1 = find_neighbors(x[:1], x, 2 * h)

@@ -182,12 +182,17 @@ def test_wall_guard_removes_only_inward_velocity():
     s, j = nbrs(x, nf)
     v = np.array([[1.0, -2.0], [1.0, 2.0], [1.0, -2.0]])
     v_old = v.copy()
-    K.no_penetration(x, s, j, nf, wn, 0.5, v_old, v, len(x))
+    vb = np.zeros((len(xw), 2))
+    dv = np.zeros((nf, 2))
+    row = np.zeros(nf, dtype=np.int64)
+    K.boundary_guard(x, s, j, nf, nf, len(x), wn, vb, 0.5, v_old, v, dv, row)
     # 0.7 above the top wall layer: inside the 0.5 gap? no (0.7 > 0.5) -> untouched
     assert_allclose(v, [[1.0, -2.0], [1.0, 2.0], [1.0, -2.0]])
     x[0, 1] = -0.1  # 0.4 above the wall layer, moving down: loses the normal part
-    K.no_penetration(x, s, j, nf, wn, 0.5, v_old, v, len(x))
+    K.boundary_guard(x, s, j, nf, nf, len(x), wn, vb, 0.5, v_old, v, dv, row)
     assert_allclose(v[0], [1.0, 0.0], atol=1e-12)
+    assert_allclose(dv[0], [0.0, 2.0], atol=1e-12)
+    assert row[0] >= 0
     assert_allclose(v_old[0], [1.0, 0.0], atol=1e-12)
 
 
