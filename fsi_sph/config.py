@@ -83,7 +83,7 @@ class SphSection(_Model):
 
 
 class Material(_Model):
-    """Elastic material of a TLSPH body (plane strain) [F 37-40]."""
+    """Elastic material of a TLSPH body [F 37-40], plane strain (default) or plane stress."""
 
     model: Literal["stvk", "hooke_almansi", "neo_hookean"] = Field(
         "stvk", description="St Venant-Kirchhoff, the source's Hooke law on the Almansi strain, "
@@ -92,6 +92,9 @@ class Material(_Model):
     E: Positive = Field(description="Young's modulus (Pa)")
     nu: Annotated[float, Field(gt=-1.0, lt=0.5)] = Field(
         description="Poisson's ratio, in (-1, 0.5)")
+    plane: Literal["strain", "stress"] = Field(
+        "strain", description="2D idealisation: plane strain (PHYSICS.md §4) or plane stress "
+        "(sigma_zz = 0: lambda replaced by 2 lambda mu/(lambda + 2 mu))")
 
 
 class ArtificialViscosity(_Model):

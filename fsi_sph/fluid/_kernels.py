@@ -128,10 +128,16 @@ def surface_classes(x, is_surface, n_nbr, grad_c, nbr_start, nbr_j, nf, h, out_c
 
 
 @njit(cache=True, parallel=True)
-def gradients(x, p, v, vol, L, nbr_start, nbr_j, nf, h, kind, out_grad_p, out_grad_v):
+def gradients(x, p, v, vol, L, nbr_start, nbr_j, nf, h, kind, out_grad_p, out_grad_v,
+              jv=-1):
     """Corrected consistent gradients [F 7, F 13]: ``grad phi_i = sum_j V_j (phi_j - phi_i)
     L_i grad W_ij`` of the pressure (``out_grad_p``, (nf, 2)) and of the velocity
-    (``out_grad_v[i, k, l] = d v_k / d x_l``, (nf, 2, 2))."""
+    (``out_grad_v[i, k, l] = d v_k / d x_l``, (nf, 2, 2)).
+
+    ``jv >= 0``: sources ``j >= jv`` (walls, structures) enter the velocity gradient with the
+    row's own velocity (no difference): a zero normal derivative of the velocity at the
+    boundary, the free-slip condition. (Their no-slip velocity would put a spurious shear of
+    ``|u| / dx`` into the gradient of every particle sliding along a wall.)"""
     for i in prange(nf):
         gp0 = 0.0
         gp1 = 0.0
@@ -152,10 +158,12 @@ def gradients(x, p, v, vol, L, nbr_start, nbr_j, nf, h, kind, out_grad_p, out_gr
             c0 = vol[j] * (L[i, 0, 0] * w0 + L[i, 0, 1] * w1)
             c1 = vol[j] * (L[i, 1, 0] * w0 + L[i, 1, 1] * w1)
             dp = p[j] - p[i]
-            du = v[j, 0] - v[i, 0]
-            dv = v[j, 1] - v[i, 1]
             gp0 += dp * c0
             gp1 += dp * c1
+            if jv >= 0 and j >= jv:
+                continue
+            du = v[j, 0] - v[i, 0]
+            dv = v[j, 1] - v[i, 1]
             g00 += du * c0
             g01 += du * c1
             g10 += dv * c0

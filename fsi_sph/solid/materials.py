@@ -1,4 +1,7 @@
-"""Elastic constitutive laws, plane strain: F -> first Piola-Kirchhoff stress P.
+"""Elastic constitutive laws in 2D: F -> first Piola-Kirchhoff stress P.
+
+Plane strain (PHYSICS.md §4, the default) or plane stress; the two differ only in the first
+Lame constant the 2D law is given (:func:`lame`).
 
 Tensors are passed as four scalars (row-major ``f00, f01, f10, f11``) so that the
 particle loops allocate nothing. ``MODELS`` maps case-file names to the ids the loops use.
@@ -16,14 +19,26 @@ NEO_HOOKEAN = 2
 MODELS = {"stvk": STVK, "hooke_almansi": HOOKE_ALMANSI, "neo_hookean": NEO_HOOKEAN}
 
 
-def lame(E, nu):
-    """Plane-strain Lame constants [F 37-40]: lambda = E nu/((1+nu)(1-2nu)), mu = E/(2(1+nu))."""
-    return E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)), E / (2.0 * (1.0 + nu))
+def lame(E, nu, plane="strain"):
+    """Lame constants of the 2D law.
+
+    Plane strain [F 37-40]: lambda = E nu/((1+nu)(1-2nu)), mu = E/(2(1+nu)).
+    Plane stress (sigma_zz = 0): the in-plane law is the plane-strain one with
+    lambda* = 2 lambda mu/(lambda + 2 mu) = E nu/(1 - nu^2) (the out-of-plane strain
+    eliminated); exact for small strains, and for large strains a 2D hyperelastic law with
+    the plane-stress small-strain constants (the out-of-plane stretch is not solved for)."""
+    lam, mu = E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)), E / (2.0 * (1.0 + nu))
+    if plane == "stress":
+        lam = 2.0 * lam * mu / (lam + 2.0 * mu)
+    elif plane != "strain":
+        raise ValueError(f"plane = {plane!r}: allowed 'strain', 'stress'")
+    return lam, mu
 
 
-def wave_speed(E, nu, rho0):
-    """P-wave speed c_s = sqrt((K + 4G/3)/rho0) = sqrt((lambda + 2 mu)/rho0) (PHYSICS §4)."""
-    lam, mu = lame(E, nu)
+def wave_speed(E, nu, rho0, plane="strain"):
+    """P-wave speed of the 2D law, c_s = sqrt((lambda + 2 mu)/rho0) (PHYSICS §4: K + 4G/3
+    in plane strain)."""
+    lam, mu = lame(E, nu, plane)
     return math.sqrt((lam + 2.0 * mu) / rho0)
 
 

@@ -50,8 +50,9 @@ class ElasticBody:
         self.model = MODELS[mat.model]
         self.rho0 = mat.rho0
         self.youngs = mat.E
-        self.lam, self.mu = lame(mat.E, mat.nu)
-        self.c0 = wave_speed(mat.E, mat.nu, mat.rho0)
+        self.plane = mat.plane
+        self.lam, self.mu = lame(mat.E, mat.nu, mat.plane)
+        self.c0 = wave_speed(mat.E, mat.nu, mat.rho0, mat.plane)
         self.h = sph.h_over_dx * dx
         self.kernel = KERNELS[sph.kernel]
         self.gravity = np.asarray(gravity, dtype=np.float64)
@@ -186,7 +187,9 @@ class ElasticBody:
         b = self.body
         sigma = K.cauchy_stress(b["F"], b["P"])
         s00, s11, s01 = sigma[:, 0, 0], sigma[:, 1, 1], sigma[:, 0, 1]
-        szz = self.lam / (self.lam + self.mu) * 0.5 * (s00 + s11)  # plane strain, small strain
+        # sigma_zz: nu (s00 + s11) in plane strain (small strain), 0 in plane stress
+        szz = self.lam / (self.lam + self.mu) * 0.5 * (s00 + s11) if self.plane == "strain" \
+            else np.zeros_like(s00)
         vm = np.sqrt(0.5 * ((s00 - s11) ** 2 + (s11 - szz) ** 2 + (szz - s00) ** 2) + 3 * s01**2)
         return {"x": b["x"].copy(), "v": b["v"].copy(), "u": b["x"] - b["x0"], "sigma": sigma,
                 "von_mises": vm, "J": np.linalg.det(b["F"])}

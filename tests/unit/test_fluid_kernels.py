@@ -69,10 +69,35 @@ def test_corrected_gradients_exact_for_linear_fields(perturbed):
     p = 3.0 * x[:, 0] - 2.0 * x[:, 1] + 1.0
     v = np.column_stack([x[:, 1], 2.0 * x[:, 0]])
     gp, gv = np.zeros((n, 2)), np.zeros((n, 2, 2))
-    K.gradients(x, p, v, vol, L, s, j, n, H, KIND, gp, gv)
+    K.gradients(x, p, v, vol, L, s, j, n, H, KIND, gp, gv, -1)
     ok = np.abs(np.linalg.det(L)) > 0  # every row here has a full-rank moment
     assert_allclose(gp[ok], np.tile([3.0, -2.0], (ok.sum(), 1)), atol=1e-10)
     assert_allclose(gv[ok], np.tile([[0.0, 1.0], [2.0, 0.0]], (ok.sum(), 1, 1)), atol=1e-10)
+
+
+def test_free_slip_velocity_gradient_ignores_boundary_velocity(perturbed):
+    """``jv``: sources from ``jv`` on (walls) carry no velocity difference, whatever their
+    velocity; the pressure gradient still uses them. Compared with a gradient where those
+    sources are given each row's own velocity (the same thing, written out)."""
+    x = perturbed
+    n = len(x)
+    nf = 90
+    vol = np.ones(n)
+    s, j = nbrs(x, nf)
+    L = np.zeros((nf, 2, 2))
+    K.correction_matrices(x, vol, s, j, H, KIND, L)
+    p = 3.0 * x[:, 0] - 2.0 * x[:, 1]
+    v = np.column_stack([np.full(n, 2.0), np.zeros(n)])
+    v[nf:] = 0.0  # no-slip wall velocity: the sheared gradient we want to avoid
+    gp, gv = np.zeros((nf, 2)), np.zeros((nf, 2, 2))
+    K.gradients(x, p, v, vol, L, s, j, nf, H, KIND, gp, gv, nf)
+    # uniform fluid velocity + free-slip walls: no velocity gradient at all
+    assert np.abs(gv).max() < 1e-12
+    gp_all, gv_all = np.zeros((nf, 2)), np.zeros((nf, 2, 2))
+    K.gradients(x, p, v, vol, L, s, j, nf, H, KIND, gp_all, gv_all, -1)
+    assert_allclose(gp, gp_all, rtol=1e-12, atol=1e-12)
+    touched = np.array([np.any(j[s[i]:s[i + 1]] >= nf) for i in range(nf)])
+    assert touched.any() and np.abs(gv_all[touched]).max() > 1.0  # the no-slip shear
 
 
 def test_ppe_assembly_matches_dense_oracle(perturbed):

@@ -74,3 +74,33 @@ def test_hooke_almansi_is_hooke_on_almansi_strain():
     sig = LAM * np.trace(e) * np.eye(2) + 2 * MU * e
     want = np.linalg.det(F) * sig @ Fi.T
     np.testing.assert_allclose(P_of("hooke_almansi", F), want, rtol=1e-12)
+
+
+@pytest.mark.parametrize("model", sorted(MODELS))
+@pytest.mark.parametrize("plane", ["strain", "stress"])
+def test_uniaxial_stress_modulus(model, plane):
+    """Uniaxial stress (sigma_yy = 0) at small strain: the 2D law's axial modulus is
+    E / (1 - nu^2) in plane strain (eps_zz = 0) and E in plane stress (sigma_zz = 0).
+    eps_yy is found from sigma_yy = 0 (linear in eps_yy at small strain)."""
+    lam, mu = lame(E, NU, plane)
+    exx = 1e-6
+
+    def p_of(eyy):
+        F = np.diag([1.0 + exx, 1.0 + eyy])
+        return np.array(pk1(MODELS[model], lam, mu, *F.ravel())).reshape(2, 2)
+
+    s0, s1 = p_of(0.0)[1, 1], p_of(-1e-6)[1, 1]
+    eyy = 1e-6 * s0 / (s1 - s0)  # root of sigma_yy(eps_yy), linear between the two
+    modulus = p_of(eyy)[0, 0] / exx
+    want = E / (1 - NU**2) if plane == "strain" else E
+    assert np.isclose(modulus, want, rtol=1e-4)
+    # lateral contraction: nu/(1 - nu) in plane strain, nu in plane stress
+    assert np.isclose(-eyy / exx, NU / (1 - NU) if plane == "strain" else NU, rtol=1e-4)
+
+
+def test_plane_stress_wave_speed_and_bad_plane():
+    lam, mu = lame(1.0, 0.25, "stress")
+    assert np.isclose(lam, 0.25 / (1 - 0.25**2)) and np.isclose(mu, 0.4)
+    assert np.isclose(wave_speed(1.0, 0.25, 1.0, "stress"), np.sqrt(1 / (1 - 0.25**2)))
+    with pytest.raises(ValueError, match="allowed"):
+        lame(1.0, 0.25, "shell")
