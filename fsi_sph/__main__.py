@@ -17,7 +17,7 @@ from pathlib import Path
 log = logging.getLogger("fsi_sph")
 
 REPO = Path(__file__).resolve().parents[1]
-DEFAULT_CASE = REPO / "cases" / "oscillating_plate.toml"
+DEFAULT_CASE = REPO / "cases" / "dam_break_elastic_gate.toml"
 VALIDATION_DIR = REPO / "validation"
 
 

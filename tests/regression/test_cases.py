@@ -30,10 +30,11 @@ def test_cli_smoke(tmp_path):
     """``fsi-sph run`` with no case runs the default scene (here cut to 5 steps)."""
     out = tmp_path / "run"
     p = subprocess.run([sys.executable, "-m", "fsi_sph", "run", "--max-steps", "5",
-                        "--set", "case.dx=0.004", "--out", str(out), "--no-progress"],
+                        "--set", "case.dx=0.0025", "--out", str(out), "--no-progress"],
                        capture_output=True, text=True, timeout=600)
     assert p.returncode == 0, p.stderr
     assert "stopped at max_steps = 5" in p.stderr
     with h5py.File(out / "run.h5", "r") as f:
         assert f["timing"].attrs["steps"] == 5
-        assert np.isfinite(f["probes/tip"][()]).all()
+        assert f.attrs["case_file"].endswith("dam_break_elastic_gate.toml")
+        assert np.isfinite(f["probes/gate_tip"][()]).all()
