@@ -52,6 +52,19 @@ def static_tip_deflection(E, nu, plane, thickness=0.005, length=0.079, head=0.14
     return float(np.trapezoid(q * s**2 * (3.0 * length - s) / (6.0 * ei), s))
 
 
+def fluid_inside_gate(run_file, dx):
+    """Largest number of fluid particles inside the gate (its deformed lattice cells,
+    :func:`validation.stability.fluid_inside`) over the run's snapshots."""
+    import h5py
+
+    from validation.stability import fluid_inside, lattice_quads
+
+    with h5py.File(run_file, "r") as f:
+        snaps = [f["snapshots"][k] for k in sorted(f["snapshots"])]
+        quads = lattice_quads(snaps[0]["gate/x"][()], dx)
+        return max(fluid_inside(s["fluid/x"][()], s["gate/x"][()], quads) for s in snaps)
+
+
 def load_curve(path):
     """(t, displacement) of a digitised curve, first sample subtracted."""
     d = np.loadtxt(path)
@@ -136,6 +149,7 @@ def validate(quick=False, data_dir="../shared/validation_data",
         t, c = read_probe(run_dir / "run.h5", "gate_tip")
         errors, values = compare(t, c["ux"], c["uy"], data_dir)
         values.update(status=s["status"], t_reached_s=float(t[-1]),
+                      fluid_inside_gate_max=fluid_inside_gate(run_dir / "run.h5", dx),
                       plane=("strain" if extra else mat.plane), **static)
         records.append(make_record(label, dx, s, errors, values))
         runs[label] = (t, c["ux"], c["uy"])

@@ -525,13 +525,18 @@ def wall_normals(xw, vol, nbr_start, nbr_j, h, kind, out_n):
 
 
 @njit(cache=True)
-def nearest_source(x, nbr_start, nbr_j, i, j_lo, j_hi):
-    """The neighbour ``j_lo <= j < j_hi`` of row ``i`` nearest to it (-1 if none)."""
+def nearest_source(x, nbr_start, nbr_j, i, j_lo, j_hi, normals):
+    """The neighbour ``j_lo <= j < j_hi`` of row ``i`` nearest to it among those with a
+    surface normal (``normals[j - j_lo] != 0``; -1 if none). Interior boundary particles
+    (zero normal) are passed over: a fluid particle that has come closer to one of them than
+    to the surface layer is still guarded by the surface layer's normal."""
     best = 1e300
     jb = -1
     for k in range(nbr_start[i], nbr_start[i + 1]):
         j = nbr_j[k]
         if j < j_lo or j >= j_hi:
+            continue
+        if normals[j - j_lo, 0] == 0.0 and normals[j - j_lo, 1] == 0.0:
             continue
         d0 = x[i, 0] - x[j, 0]
         d1 = x[i, 1] - x[j, 1]
@@ -559,14 +564,14 @@ def boundary_guard(x, nbr_start, nbr_j, nf, j_lo, j_hi, normals, v_b, gap, v_old
         out_dv[i, 0] = 0.0
         out_dv[i, 1] = 0.0
         out_row[i] = -1
-        jb = nearest_source(x, nbr_start, nbr_j, i, j_lo, j_hi)
+        jb = nearest_source(x, nbr_start, nbr_j, i, j_lo, j_hi, normals)
         if jb < 0:
             continue
         b = jb - j_lo
         n0 = normals[b, 0]
         n1 = normals[b, 1]
         dn = (x[i, 0] - x[jb, 0]) * n0 + (x[i, 1] - x[jb, 1]) * n1
-        if (n0 == 0.0 and n1 == 0.0) or dn >= gap:
+        if dn >= gap:
             continue
         un = (v[i, 0] - v_b[b, 0]) * n0 + (v[i, 1] - v_b[b, 1]) * n1
         if un < 0.0:

@@ -307,6 +307,7 @@ class IncompressibleFluid:
         self._sync()
         self.shifting.vectors(self.x_all, self.v_all, self.vol_all, self.ff_start, self.ff_j,
                               self.nf, self.h, self.kernel, dt, b["class"], b["normal"], b["dr"])
+        self._guard_shift(b["dr"])
         if self.shifting.cfg.taylor_correction:
             # Newtonian fluid: the velocity's Taylor correction [F 33] takes the walls as
             # free-slip. With their zero (no-slip) velocity in the gradient, a particle that
@@ -430,6 +431,22 @@ class IncompressibleFluid:
         self._guard(dt, v)
         b["x"] += 0.5 * dt * (self.v_old + v)
 
+    def _guard_shift(self, dr):
+        """No shift into a boundary: within the guard distance of a wall or structure surface
+        (:meth:`_guard`) the inward part of the shift ``dr`` is removed. Close to a boundary
+        particle the colour gradient of the shift weakens as the kernel gradient does, and
+        the shift alone walked particles into the gate's surface layer (measured)."""
+        nf = self.nf
+        nwall = self.nw - self.ns
+        zero = np.zeros((self.nw, 2))
+        scratch = np.zeros((nf, 2))
+        for lo, hi, gap in ((nf, nf + nwall, 0.5 * self.dx),
+                            (nf + nwall, nf + self.nw, 2.0 * self.h / 3.0)):
+            if hi > lo:
+                K.boundary_guard(self.x_all, self.ff_start, self.ff_j, nf, lo, hi,
+                                 self.wall_n[lo - nf:hi - nf], zero[lo - nf:hi - nf], gap,
+                                 scratch, dr, self._guard_dv, self._guard_row)
+
     def _guard(self, dt, v):
         """The kinematic guard (:func:`_kernels.boundary_guard`) at the fixed walls, then at
         the coupled structures' surfaces; there the fluid's momentum change goes to the
@@ -437,15 +454,20 @@ class IncompressibleFluid:
         and equal."""
         nf = self.nf
         nwall = self.nw - self.ns  # the walls (and their periodic images), then structures
-        gap = 0.5 * self.dx
         if nwall:
             K.boundary_guard(self.x_all, self.ff_start, self.ff_j, nf, nf, nf + nwall,
-                             self.wall_n[:nwall], self.v_b[:nwall], gap, self.v_old, v,
-                             self._guard_dv, self._guard_row)
+                             self.wall_n[:nwall], self.v_b[:nwall], 0.5 * self.dx, self.v_old,
+                             v, self._guard_dv, self._guard_row)
         if self.ns:
+            # At a structure the guard acts from 2h/3 on, where the cubic spline's kernel
+            # gradient peaks: closer than that the pair repulsion [F 46-47] weakens as a
+            # fluid particle approaches, the fluid pressure behind it wins, and it drifts
+            # into the surface layer (seen on the gate's upstream face: particles sliding down
+            # it at 0.3-0.5 dx from its particles, some ending between them). (The walls keep
+            # dx/2: thick layers, no such drift seen.)
             K.boundary_guard(self.x_all, self.ff_start, self.ff_j, nf, nf + nwall,
-                             nf + self.nw, self.wall_n[nwall:], self.v_b[nwall:], gap,
-                             self.v_old, v, self._guard_dv, self._guard_row)
+                             nf + self.nw, self.wall_n[nwall:], self.v_b[nwall:],
+                             2.0 * self.h / 3.0, self.v_old, v, self._guard_dv, self._guard_row)
             self.guard_force[:] = 0.0
             hit = self._guard_row >= 0
             if hit.any():

@@ -221,6 +221,69 @@ def test_wall_guard_removes_only_inward_velocity():
     assert_allclose(v_old[0], [1.0, 0.0], atol=1e-12)
 
 
+def test_guard_uses_nearest_surface_particle_past_the_surface_layer():
+    """A fluid particle that has got between the surface layer and an interior boundary
+    particle (zero normal) is still guarded, by the surface layer's normal."""
+    xw = lattice(10, 3, origin=(0.0, -3.0))  # layers at y = -0.5, -1.5, -2.5
+    xf = np.array([[5.0, -1.2]])  # nearer the second layer (-1.5) than the surface (-0.5)
+    x = np.vstack([xf, xw])
+    vol = np.ones(len(x))
+    ws, wj = find_neighbors(xw, xw, 2 * H, exclude_self=True)
+    wn = np.zeros((len(xw), 2))
+    K.wall_normals(xw, vol[1:], ws, wj, H, KIND, wn)
+    wn[np.abs(xw[:, 1] + 1.5) < 1e-9] = 0.0  # the middle layer: interior, no normal
+    s, j = nbrs(x, 1)
+    v, v_old = np.array([[0.5, -1.0]]), np.array([[0.5, -1.0]])
+    dv, row = np.zeros((1, 2)), np.zeros(1, dtype=np.int64)
+    K.boundary_guard(x, s, j, 1, 1, len(x), wn, np.zeros((len(xw), 2)), 0.5, v_old, v, dv,
+                     row)
+    assert_allclose(v[0], [0.5, 0.0], atol=1e-12)
+    assert np.abs(xw[row[0], 1] + 0.5) < 1e-9  # the surface layer took the reaction
+
+
+def test_shift_never_moves_a_particle_into_a_structure(tmp_path):
+    """The shift's inward part is removed within the guard distance (2h/3) of a coupled
+    structure's surface, and within dx/2 of a wall."""
+    from fsi_sph.config import load_config
+    from fsi_sph.simulation import Simulation
+
+    text = """
+[case]
+t_end = 0.01
+dx = 0.01
+[fluid]
+material = { rho0 = 1000.0 }
+blocks = [{ origin = [0.0, 0.0], size = [0.2, 0.1] }]
+pressure_gradient = "conservative"
+[fluid.shifting]
+model = "fickian_fixed"
+coefficient = 0.5
+[walls]
+tanks = [{ origin = [0.0, 0.0], size = [0.3, 0.2] }]
+[solid.post]
+material = { rho0 = 1000.0, E = 1.0e6, nu = 0.3 }
+blocks = [{ origin = [0.2, 0.0], size = [0.03, 0.1] }]
+clamp = [{ origin = [0.2, 0.0], size = [0.03, 0.1] }]
+[coupling]
+structures = ["post"]
+"""
+    sim = Simulation(load_config(None, text=text))
+    fl = sim.fluid
+    fl.body["x"][:, 0] += 0.003 * (fl.body["x"][:, 0] > 0.185)  # last column 0.7 dx off
+    fl._sync()
+    dr = np.tile([0.002, -0.001], (fl.nf, 1))  # a shift into the post (and the floor)
+    fl._guard_shift(dr)
+    x = fl.body["x"]
+    near_post = (x[:, 0] > 0.185) & (x[:, 1] > 0.02) & (x[:, 1] < 0.08)
+    assert near_post.sum() >= 5
+    assert_allclose(dr[near_post], np.tile([0.0, -0.001], (near_post.sum(), 1)), atol=1e-12)
+    on_floor = (x[:, 1] < 0.01) & (x[:, 0] > 0.05) & (x[:, 0] < 0.15)
+    # the floor row sits 1 dx above the wall layer, beyond the walls' dx/2: it keeps its shift
+    assert_allclose(dr[on_floor], np.tile([0.002, -0.001], (on_floor.sum(), 1)))
+    far = (np.abs(x[:, 0] - 0.1) < 0.03) & (np.abs(x[:, 1] - 0.05) < 0.02)
+    assert_allclose(dr[far], np.tile([0.002, -0.001], (far.sum(), 1)))
+
+
 def test_shepard_interpolation_of_a_constant():
     x = lattice(6, 6)
     p = np.full(len(x), 5.0)
