@@ -60,6 +60,14 @@ class Periodic:
                                                     self.x_max, self.reach)
         else:
             self.wall_idx, self.wall_shift = np.zeros(0, np.int64), np.zeros(0)
+        if self.n_walls:
+            # the walls' normals over their periodic continuation: a wall cut by the period's
+            # edge has no end there (its end columns would otherwise get sideways normals,
+            # and the kinematic guard would brake the flow across the edge)
+            xw = fluid.walls.body["x"]
+            period = np.array([self.x_max - self.x_min, 0.0])
+            fluid.wall_n[:self.n_walls] = fluid._fixed_wall_normals(
+                np.vstack([xw, xw - period, xw + period]))[:self.n_walls]
         self.wall_n0 = fluid.wall_n[:self.n_walls].copy()
         self.fluid_idx = np.zeros(0, np.int64)
         self.fluid_shift = np.zeros(0)

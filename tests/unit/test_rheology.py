@@ -319,3 +319,14 @@ def test_mu_i_layer_sliding_on_a_rough_bed_stops_on_the_friction_time_scale():
     while sim.t < t_slow:
         sim.step()
     assert abs(f.body["v"][:, 0].mean()) < 0.01
+
+
+def test_periodic_bed_normals_have_no_ends():
+    """A bed cut by the period's edges has no ends there: the normals of its top layer all
+    point up, the end columns included (the kinematic guard acts along them)."""
+    sim = Simulation(mui_config(law="newtonian", params=""))
+    f = sim.fluid
+    xw = f.walls.body["x"]
+    top = np.isclose(xw[:, 1], xw[:, 1].max())
+    assert top.sum() == 12
+    assert_allclose(f.wall_n[:f.n_walls][top], np.tile([0.0, 1.0], (12, 1)), atol=1e-9)
