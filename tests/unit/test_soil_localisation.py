@@ -14,8 +14,11 @@ s_zz = 0, sigma_v the major stress, as in the active wedge behind the released f
 What it shows for the column collapse (validation/column_collapse.py): with psi = 0 a band
 can form at 45.0 to 53.3 deg from the horizontal (the most critical orientation ~49 deg), so
 the onset line the SPH soil draws at 45.0 deg is one the model admits (its Roscoe edge),
-and Coulomb's 54.9 deg is not among them: no discretisation of this model can put the onset
-band there. With psi = phi no orientation loses ellipticity at zero hardening.
+and Coulomb's 54.9 deg is not among them: in that stress state (the Rankine active state, a
+vertical major stress) no discretisation of this model can put a band there. At first yield
+from an elastic state (s_zz the smallest deviator) no orientation localises yet; the state
+reaches the critical one as s_zz flows to 0. With psi = phi no orientation loses
+ellipticity at zero hardening.
 """
 
 import math
