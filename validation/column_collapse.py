@@ -43,6 +43,9 @@ EPS_LINE = 0.05  # plastic strain that separates the sliding wedge from the undi
 RUNOUT_RANGE = (0.30, 0.40)
 HEIGHT, LENGTH = 0.1, 0.2  # m: the column
 ONSET_ADVANCE = 0.2  # of H: front advance beyond the released face that marks failure onset
+# sensitivity of the onset line (recorded, not a criterion): other onset moments and thresholds
+SENS_ADVANCES = (0.05, 0.1, 0.2, 0.3)
+SENS_THRESHOLDS = (0.01, 0.05, 0.2)
 
 
 def failure_line(x0, eps_p, dx, height=0.1, eps_line=EPS_LINE):
@@ -71,6 +74,15 @@ def failure_line(x0, eps_p, dx, height=0.1, eps_line=EPS_LINE):
     return pts, math.degrees(math.atan2(1.0, abs(slope)))
 
 
+def onset_sensitivity(x0, fields, dx, thresholds=SENS_THRESHOLDS):
+    """Failure-line angle for each captured onset field and threshold:
+    ``{"adv=<a>H,eps=<e>": angle}`` with ``fields = {a: eps_p}`` (a = front advance / H).
+    A record of how much the 'onset line' depends on the two choices the criterion fixes
+    (ONSET_ADVANCE, EPS_LINE); see validation/README_soil.md."""
+    return {f"adv={a:g}H,eps={e:g}": round(failure_line(x0, f, dx, eps_line=e)[1], 2)
+            for a, f in sorted(fields.items()) for e in thresholds}
+
+
 def static_bounds(phi_deg=PHI_DEG, height=HEIGHT, length=LENGTH):
     """What statics allows a cohesionless deposit (free surface no steeper than phi, area
     conserved): the longest undisturbed top ``x_a``, the shortest run-out and the steepest
@@ -92,10 +104,14 @@ def run_one(dx, t_end, out_dir):
     sim = build(CASE, dx)
     body = sim.structures["bars"]
     onset = {}
+    sens = {}
 
-    def grab(s):  # the plastic-strain field at failure onset
-        if "eps_p" not in onset and (body.body["x"][:, 0].max()
-                                     >= LENGTH + ONSET_ADVANCE * HEIGHT):
+    def grab(s):  # the plastic-strain field at failure onset (and at the other advances)
+        adv = (body.body["x"][:, 0].max() - LENGTH) / HEIGHT
+        for a in SENS_ADVANCES:
+            if a not in sens and adv >= a:
+                sens[a] = body.body["eps_p"].copy()
+        if "eps_p" not in onset and adv >= ONSET_ADVANCE:
             onset["eps_p"] = body.body["eps_p"].copy()
             onset["t"] = s.t
 
@@ -107,6 +123,9 @@ def run_one(dx, t_end, out_dir):
     target = 45.0 + PHI_DEG / 2.0
     x_a, runout_min, angle_max = static_bounds()
     ke = body.kinetic_energy()
+    sens_angles = onset_sensitivity(b["x0"], sens, dx)
+    log.info("dx %.4g: onset-line sensitivity %s", dx,
+             {k: round(v, 1) for k, v in sens_angles.items()})
     log.info("dx %.4g: run-out %.4f m; failure line at onset (t = %.3f s) %.2f deg, final "
              "%.2f deg (target %.2f); KE end %.3g J/m, %d steps in %.1f s", dx, runout,
              onset["t"], angle_on, angle, target, ke, sim.n_steps, wall)
@@ -138,7 +157,8 @@ def run_one(dx, t_end, out_dir):
                    "t_onset": onset["t"], "failure_angle_final_deg": angle,
                    "target_angle_deg": target, "static_min_runout_m": runout_min,
                    "static_max_final_angle_deg": angle_max, "static_max_top_m": x_a,
-                   "final_kinetic_energy": ke, "t_end": t_end})
+                   "final_kinetic_energy": ke, "t_end": t_end,
+                   "onset_angle_sensitivity_deg": sens_angles})
 
 
 def validate(quick=False, data_dir=None, out_dir=None):

@@ -9,7 +9,9 @@ One sub-step (symplectic Euler, so that the stress-velocity wave system stays st
    contact forces; refresh the ghosts' velocities;
 4. velocity gradient and continuity from ``v^{n+1}`` [S 4-5]; Jaumann stress update and
    return mapping [S 4-42 to 4-57, 4-36 to 4-41];
-5. drift ``x^{n+1} = x^n + dt v^{n+1}`` (or the XSPH velocity [S 4-71]), ``rho`` update.
+5. drift ``x^{n+1} = x^n + dt v^{n+1}`` (or the XSPH velocity [S 4-71]), ``rho`` update;
+   a particle that crossed a wall is put back (with the friction of that contact impulse
+   on a Coulomb wall).
 """
 
 from __future__ import annotations
@@ -265,7 +267,7 @@ class DruckerPragerBody:
         K.integrate(n, b["x"], b["v"], vhat, b["a"], b["rho"], b["drho"], g[0], g[1],
                     self.cfg.damping, dt, False)
         if len(side):
-            K.enforce_walls(b["x"], b["v"], side, pos, 1e-3 * self.dx)
+            K.enforce_walls(b["x"], b["v"], side, pos, fric, mu, 1e-3 * self.dx)
 
     # ------------------------------------------------------------------ diagnostics
     def kinetic_energy(self):

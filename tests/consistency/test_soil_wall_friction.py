@@ -64,3 +64,24 @@ def test_strip_keeps_sliding_on_a_free_slip_floor():
     dist, b = run('{ side = "bottom", position = 0.0, friction = "free_slip" }', t)
     assert dist == pytest.approx(V0 * t, rel=0.01)
 
+
+
+def test_particle_lying_on_the_wall_line_keeps_its_friction():
+    """A particle on the floor line (y = 1e-3 dx, where the wall guard puts a particle that
+    crossed it): its own mirror ghost coincides with it (grad W(0) = 0), so the ghosts'
+    contact force vanishes and only the guard's clamp holds it up; the clamp's normal impulse
+    must bring Coulomb friction too. Before: it slid 0.15 m in 0.3 s at 0.49 m/s."""
+    delta = 20.0
+    mu = math.tan(math.radians(delta))
+    wall = (f'{{ side = "bottom", position = 0.0, friction = "coulomb", '
+            f'friction_angle_deg = {delta} }}')
+    text = CASE.format(t_end=1.5 * V0 / (mu * G), wall=wall, length=DX)
+    sim = Simulation(load_config(None, text=text))
+    b = sim.structures["strip"].body
+    b["x"][:, 1] = 1e-3 * DX
+    b["v"][:, 0] = V0
+    x0 = float(b["x"][0, 0])
+    sim.run(out_dir=None, progress=False)
+    assert float(b["x"][0, 0]) - x0 == pytest.approx(V0**2 / (2.0 * mu * G), rel=0.03)
+    assert abs(b["v"][0, 0]) < 1e-3 * V0
+    assert b["x"][0, 1] > 0.0

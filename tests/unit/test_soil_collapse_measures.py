@@ -9,7 +9,11 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
-from validation.column_collapse import failure_line, static_bounds  # noqa: E402
+from validation.column_collapse import (  # noqa: E402
+    failure_line,
+    onset_sensitivity,
+    static_bounds,
+)
 from validation.soil_common import deposit_toe  # noqa: E402
 
 
@@ -43,3 +47,25 @@ def test_deposit_toe_ignores_particles_thrown_ahead():
     dx = 0.01
     x = np.array([[0.005 + k * dx, 0.005] for k in range(30)] + [[0.5, 0.005]])
     assert deposit_toe(x, dx) == pytest.approx(0.295 + 0.005)
+
+
+def test_onset_sensitivity_of_a_graded_wedge():
+    """A wedge whose plastic strain falls linearly from 1 on the 70 deg plane through the toe
+    to 0 on the 45 deg plane: each threshold e finds the plane where the strain is e, so the
+    line steepens from 45 towards 70 deg as the threshold rises (the way the onset line of
+    the column depends on EPS_LINE); a sharp wedge gives the same angle at every threshold."""
+    dx = 0.0025
+    xs, ys = np.meshgrid(np.arange(dx / 2, 0.2, dx), np.arange(dx / 2, 0.1, dx))
+    x0 = np.column_stack([xs.ravel(), ys.ravel()])
+    x45 = 0.2 - x0[:, 1]
+    x70 = 0.2 - x0[:, 1] / math.tan(math.radians(70.0))
+    graded = np.clip((x0[:, 0] - x45) / (x70 - x45 + 1e-12), 0.0, 1.0)
+    sharp = (x0[:, 0] > 0.2 - x0[:, 1] / math.tan(math.radians(55.0))).astype(float)
+    res = onset_sensitivity(x0, {0.1: graded, 0.2: sharp}, dx, thresholds=(0.05, 0.5, 0.95))
+    assert set(res) == {f"adv={a}H,eps={e}" for a in (0.1, 0.2) for e in (0.05, 0.5, 0.95)}
+    a = [res[f"adv=0.1H,eps={e}"] for e in (0.05, 0.5, 0.95)]
+    assert a[0] < a[1] < a[2]
+    assert a[0] == pytest.approx(46.0, abs=2.5)
+    assert a[2] == pytest.approx(69.0, abs=2.5)
+    for e in (0.05, 0.5, 0.95):
+        assert res[f"adv=0.2H,eps={e}"] == pytest.approx(55.0, abs=1.5)
