@@ -408,6 +408,10 @@ class FluidSection(_Model):
         "(fsi_sph/fluid/viscous.py)")
     viscous_rtol: Annotated[float, Field(gt=0.0, lt=1.0)] = Field(
         1.0e-8, description="relative residual of the implicit viscous solve")
+    viscous_operator: Literal["morris", "stress"] = Field(
+        "morris", description="`morris`: the viscous term is div(eta grad u) [F 11-12] per "
+        "velocity component; `stress`: div(2 eta D), the Morris form plus the divergence of "
+        "eta (grad u)^T, which differs where eta varies (mu(I) law; fsi_sph/fluid/viscous.py)")
     periodic_x: Vec2 | None = Field(
         None, description="[x_min, x_max] (m): the fluid (and its walls) is periodic in x "
         "with period x_max - x_min (fsi_sph/fluid/periodic.py); absent: not periodic")

@@ -157,7 +157,8 @@ class IncompressibleFluid:
         # viscosity law, implicit viscous step, periodicity (rheology.py, viscous.py,
         # periodic.py); the plain explicit Newtonian fluid takes none of these paths
         self.viscosity_law = None
-        if cfg.material.viscosity != "newtonian" or cfg.viscous_step == "implicit":
+        if (cfg.material.viscosity != "newtonian" or cfg.viscous_step == "implicit"
+                or cfg.viscous_operator == "stress"):
             from fsi_sph.fluid.rheology import ViscosityLaw
             from fsi_sph.fluid.viscous import ViscousStats
 

@@ -60,19 +60,29 @@ class Periodic:
                                                     self.x_max, self.reach)
         else:
             self.wall_idx, self.wall_shift = np.zeros(0, np.int64), np.zeros(0)
-        if self.n_walls:
-            # the walls' normals over their periodic continuation: a wall cut by the period's
-            # edge has no end there (its end columns would otherwise get sideways normals,
-            # and the kinematic guard would brake the flow across the edge)
-            xw = fluid.walls.body["x"]
-            period = np.array([self.x_max - self.x_min, 0.0])
-            fluid.wall_n[:self.n_walls] = fluid._fixed_wall_normals(
-                np.vstack([xw, xw - period, xw + period]))[:self.n_walls]
+        if fluid.walls is not None and self.n_walls:
+            # the walls' outward normals over the wall set and its images: computed without
+            # them (isph), the bed particles at the seams got the normals of a box's end,
+            # (-1, 0) and (-0.71, 0.71), and the no-slip mirror there moved along the bed
+            fluid.wall_n[:self.n_walls] = self._periodic_wall_normals(fluid)
         self.wall_n0 = fluid.wall_n[:self.n_walls].copy()
         self.fluid_idx = np.zeros(0, np.int64)
         self.fluid_shift = np.zeros(0)
         self.rows = np.zeros(0, np.int64)  # global rows of the images
         self.src = np.zeros(0, np.int64)   # global rows of their originals
+
+    def _periodic_wall_normals(self, fluid):
+        from fsi_sph.fluid import _kernels as K
+
+        xw = fluid.walls.body["x"]
+        xi = xw[self.wall_idx].copy()
+        xi[:, 0] += self.wall_shift
+        xb = np.vstack([xw, xi])
+        start, j = find_neighbors(xb, xb, SUPPORT * fluid.h, exclude_self=True)
+        normals = np.zeros((len(xb), 2))
+        K.wall_normals(xb, np.full(len(xb), fluid.dx * fluid.dx), start, j, fluid.h,
+                       fluid.kernel, normals)
+        return normals[:len(xw)]
 
     # ------------------------------------------------------------------ layout
     def rebuild(self, fluid):

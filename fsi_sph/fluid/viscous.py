@@ -22,13 +22,36 @@ al. 2012) and the body force is inside the solve::
     u*_i - dt sum_j c_ij (u*_j - u*_i) = u_i + dt g,   u*_w = 2 ubar_w - <u*>_w
 
 with ``<u*>_w`` the Shepard average of the fluid around wall particle ``w`` and ``ubar_w``
-the wall velocity: normal to the wall (``n_w``) the wall's predicted velocity of the PPE,
-``u_w + dt ((g - a_w) . n_w) n_w``, so that a fluid at rest under a gravity normal to the
-wall again gets exactly ``u* = dt g``; along the wall its own velocity ``u_w``. (Mirroring
-about the whole ``u_w + dt g`` makes a bed under a tilted gravity slide at ``dt g_t``,
-which, times the wall coupling rate ``sum_w c_iw ~ 1/dt`` of a mu(I) material, was a bed
-force of twice gravity on the first row of the Bagnold case.)
-is a sparse system ``A u* = b`` for each velocity component, ``A = I + dt (D - C)``,
+the wall's predicted intermediate velocity, the boundary condition of ``u*`` in a projection
+method (Kim & Moin 1985; Brown, Cortez & Minion 2001): ``ubar_w = u_w + dt grad p^n / rho``,
+``u_w`` the wall's own velocity and ``grad p^n / rho`` the fluid's pressure acceleration of
+the previous step (the correction step's operator) Shepard-averaged at the wall. Where the
+fluid is at rest that is ``dt g`` on every wall, bed and side walls alike, and the fluid gets
+exactly ``u* = dt g``, which the projection removes; on an inclined bed under a flowing
+layer it is ``dt g_n`` normal to the bed (the layer's pressure is hydrostatic in depth), so
+the bed does not slide at ``dt g_t``. (Before: ``u_w + dt ((g - a_w) . n_w) n_w``, the
+normal part of gravity only. Along a vertical side wall that mirrored ``u_w = 0`` and the
+no-slip wall dragged the gravity increment of the fluid beside it every step; the
+projection then pushed that fluid up the wall: a mu(I) wedge at 15 deg, below its repose
+angle, crept with the material rising along the wall at 0.014 m/s, and the pressure beside
+the wall fell to ~0.6 of hydrostatic. docs/mui_notes_2026-11-30.md.)
+
+The ``stress`` operator (``viscous_operator = "stress"``) adds the divergence of the
+transposed stress, so that the viscous term is ``div(2 eta D) / rho`` and not the Morris
+``div(eta grad u) / rho``; for an incompressible flow they differ by ``div(eta (grad u)^T)
+= (grad u)^T . grad eta``, i.e. wherever ``eta`` varies (in pure extension the Morris
+stress is ``eta eps``, half of ``2 eta eps``). It is computed by nested corrected gradients
+[F 7, F 13-14]: ``tau_i = nu_i (grad u)_i^T`` over all neighbours (walls mirrored), then
+its corrected divergence over the fluid neighbours (:func:`transpose_stress_divergence`,
+gather only). Implicitly the term couples the two velocity components and reaches two
+neighbour rings: one sparse system for ``[u_x; u_y]``, ``(blockdiag(A, A) - dt B) U = b``
+(:func:`transpose_operator`), solved by a sparse LU. (A pairwise form ``sum c_ij ((u_j -
+u_i) . e) e``, which is exact for a divergence-free field with varying ``eta`` in the
+continuum, was rejected: on a square lattice its shear and extension responses are 0.79 and
+1.55 of the exact ones.)
+
+For the Morris part the implicit step is a sparse system ``A u* = b`` for each velocity
+component, ``A = I + dt (D - C)``,
 ``D_ii = sum_j c_ij`` over all neighbours, ``C_ij = c_ij`` over fluid neighbours. Boundary
 (wall) neighbours carry their known velocity ``u_w`` (no slip): ``b_i += dt sum_w c_iw u_w``.
 Periodic images of fluid particles (``col_of[j] >= 0`` for ``j >= nf``) are folded onto the
@@ -47,7 +70,7 @@ from dataclasses import dataclass
 import numpy as np
 import pyamg
 import scipy.sparse as sp
-from numba import njit
+from numba import njit, prange
 
 from fsi_sph.fluid import _kernels as K
 from fsi_sph.sph.kernels import kernel_dw, kernel_w
@@ -78,6 +101,113 @@ def pair_coefficients(x, vol, nu, nbr_start, nbr_j, nf, h, kind, eta2, out_c):
                 out_c[k] = 0.0
                 continue
             out_c[k] = -vol[j] * (nu[i] + nu[j]) * r * kernel_dw(kind, r, h) / (r2 + eta2)
+
+
+@njit(cache=True)
+def pair_gradient_weights(x, vol, L, nbr_start, nbr_j, nf, h, kind, out_g):
+    """``out_g[k] = V_j L_i grad W_ij`` of every pair ``k = (i, j)`` of the fluid rows' CSR
+    list: the weights of the corrected consistent gradient [F 7, F 13-14],
+    ``grad phi_i = sum_j out_g[k] (phi_j - phi_i)``."""
+    for i in range(nf):
+        for k in range(nbr_start[i], nbr_start[i + 1]):
+            j = nbr_j[k]
+            d0 = x[i, 0] - x[j, 0]
+            d1 = x[i, 1] - x[j, 1]
+            r = math.sqrt(d0 * d0 + d1 * d1)
+            if r < 1e-12 * h:
+                out_g[k, 0] = 0.0
+                out_g[k, 1] = 0.0
+                continue
+            dw = kernel_dw(kind, r, h)
+            w0 = dw * d0 / r
+            w1 = dw * d1 / r
+            out_g[k, 0] = vol[j] * (L[i, 0, 0] * w0 + L[i, 0, 1] * w1)
+            out_g[k, 1] = vol[j] * (L[i, 1, 0] * w0 + L[i, 1, 1] * w1)
+
+
+@njit(cache=True, parallel=True)
+def transpose_stress_divergence(x, vol, tau, fstart, fj, col_of, Lf, nf, h, kind, out):
+    """Divergence of the transposed viscous stress, the part of ``div(2 eta D)`` that the
+    Morris form ``div(eta grad u)`` leaves out (module docstring):
+    ``out_i[k] = sum_l d/dx_l tau[k, l]`` with ``tau_i[k, l] = nu_i d u_l / d x_k`` given per
+    fluid particle, by the corrected consistent divergence over the fluid neighbours
+    (``fstart, fj``: fluid-only CSR lists, periodic images folded onto their original by
+    ``col_of``; ``Lf`` the correction matrices of those lists) [F 7, F 13-14]. Gather only."""
+    for i in prange(nf):
+        a0 = 0.0
+        a1 = 0.0
+        for k in range(fstart[i], fstart[i + 1]):
+            j = fj[k]
+            c = col_of[j]
+            d0 = x[i, 0] - x[j, 0]
+            d1 = x[i, 1] - x[j, 1]
+            r = math.sqrt(d0 * d0 + d1 * d1)
+            if r < 1e-12 * h:
+                continue
+            dw = kernel_dw(kind, r, h)
+            w0 = dw * d0 / r
+            w1 = dw * d1 / r
+            g0 = vol[j] * (Lf[i, 0, 0] * w0 + Lf[i, 0, 1] * w1)
+            g1 = vol[j] * (Lf[i, 1, 0] * w0 + Lf[i, 1, 1] * w1)
+            a0 += (tau[c, 0, 0] - tau[i, 0, 0]) * g0 + (tau[c, 0, 1] - tau[i, 0, 1]) * g1
+            a1 += (tau[c, 1, 0] - tau[i, 1, 0]) * g0 + (tau[c, 1, 1] - tau[i, 1, 1]) * g1
+        out[i, 0] = a0
+        out[i, 1] = a1
+
+
+def fluid_lists(nbr_start, nbr_j, col_of):
+    """The fluid-only part of a fluid rows' CSR list (sources with ``col_of >= 0``: fluid
+    particles and their periodic images)."""
+    nf = len(nbr_start) - 1
+    keep = col_of[nbr_j] >= 0
+    rows = np.repeat(np.arange(nf), np.diff(nbr_start))
+    start = np.zeros(nf + 1, dtype=np.int64)
+    np.cumsum(np.bincount(rows[keep], minlength=nf), out=start[1:])
+    return start, np.ascontiguousarray(nbr_j[keep])
+
+
+def transpose_operator(x, vol, nu, L, nbr_start, nbr_j, nf, h, kind, col_of, v, mirror=None):
+    """Matrix form of :func:`transpose_stress_divergence` with ``tau_i[k, l] = nu_i d u_l /
+    d x_k`` from the corrected gradient [F 7, F 13-14] over all neighbours (``L`` their
+    correction matrices; boundary velocities ``v[j]`` known, or the no-slip mirror
+    ``target - S u``): ``div tau = B U + e`` with ``U = [u_x; u_y]`` (2 nf) and ``B`` the
+    2 x 2 block matrix ``B_kl = Dv_l diag(nu) G_k`` (``G_k``: d/dx_k of a fluid field,
+    ``Dv_l``: the outer corrected divergence over fluid neighbours). Returns ``(B, e)``."""
+    nb = len(x) - nf
+    g = np.empty((len(nbr_j), 2))
+    pair_gradient_weights(x, vol, L, nbr_start, nbr_j, nf, h, kind, g)
+    rows = np.repeat(np.arange(nf), np.diff(nbr_start))
+    cols = col_of[nbr_j]
+    inner = cols >= 0
+    wall = ~inner
+    fstart, fj = fluid_lists(nbr_start, nbr_j, col_of)
+    Lf = np.empty((nf, 2, 2))
+    K.correction_matrices(x, vol, fstart, fj, h, kind, Lf)
+    gf = np.empty((len(fj), 2))
+    pair_gradient_weights(x, vol, Lf, fstart, fj, nf, h, kind, gf)
+    frows = np.repeat(np.arange(nf), np.diff(fstart))
+    ar = np.arange(nf)
+    G, Dv, const = [], [], []
+    for k in range(2):
+        Gk = sp.csr_array((np.concatenate([g[inner, k], -np.bincount(rows, g[:, k], nf)]),
+                           (np.concatenate([rows[inner], ar]),
+                            np.concatenate([cols[inner], ar]))), shape=(nf, nf))
+        Gb = sp.csr_array((g[wall, k], (rows[wall], nbr_j[wall] - nf)), shape=(nf, nb))
+        if mirror is not None:
+            S, target = mirror
+            Gk = Gk - Gb @ S
+            const.append(Gb @ target)
+        else:
+            const.append(Gb @ v[nf:])
+        G.append(sp.csr_array(Gk))
+        Dv.append(sp.csr_array((np.concatenate([gf[:, k], -np.bincount(frows, gf[:, k], nf)]),
+                                (np.concatenate([frows, ar]),
+                                 np.concatenate([col_of[fj], ar]))), shape=(nf, nf)))
+    N = sp.diags_array(nu)
+    B = sp.block_array([[Dv[l] @ N @ G[k] for l in range(2)] for k in range(2)], format="csr")
+    e = np.column_stack([sum(Dv[l] @ (nu * const[k][:, l]) for l in range(2))
+                         for k in range(2)])
+    return B, e
 
 
 def assemble(x, vol, nu, v, nbr_start, nbr_j, nf, h, kind, eta2, dt, col_of, mirror=None):
@@ -210,8 +340,10 @@ def predict(fluid, dt):
         S, target = mirror
         u_w = target - S @ b["v"]
         fluid.v_all[nf:][wall_rows] = u_w[wall_rows]  # strain rate and explicit operator
+    stress = fluid.cfg.viscous_operator == "stress"
+    if law.needs_gradients or stress:
+        fluid._gradients()  # (L and grad u with the mirrored wall velocities)
     if law.needs_gradients:
-        fluid._gradients()
         law.update(fluid.grad_v, b["p"], b["nu"])
     else:
         b["nu"][:] = law.nu0
@@ -231,21 +363,20 @@ def predict(fluid, dt):
     nu_op = fluid.nu_all * fluid.lap_scale if law.kind != "newtonian" else fluid.nu_all
     if fluid.cfg.viscous_step == "implicit":
         if mirror is not None:
-            # the walls are mirrored about their predicted velocity: normal to the wall
-            # u_w + dt (g - a_w) . n n, the u*_w of the PPE (module docstring); along the
-            # wall their own velocity (no slip)
+            # the walls are mirrored about their predicted intermediate velocity, the
+            # boundary condition of u* in a projection method (Kim & Moin 1985; Brown,
+            # Cortez & Minion 2001): u*_w = u_w + dt grad p^n / rho, with grad p^n / rho
+            # the fluid's lagged pressure acceleration averaged at the wall (module
+            # docstring). Along a side wall of a column at rest that is dt g, the gravity
+            # increment the fluid beside it gets, so the no-slip wall does not drag it.
             S, target = mirror
-            n = fluid.wall_n
-            gn = np.einsum("ij,ij->i", fluid.g_b, n)[:, None] * n
-            no_normal = ~n.any(axis=1)
-            gn[no_normal] = fluid.g_b[no_normal]
-            target = wall_target(S, fluid.v_b + dt * gn)
-            mirror = (S, target)
+            mirror = (S, wall_target(S, fluid.v_b + dt * wall_predicted_acceleration(fluid,
+                                                                                     col_of)))
             A, b_wall = assemble(fluid.x_all, fluid.vol_all, nu_op, fluid.v_all,
                                  fluid.ff_start, fluid.ff_j, nf, fluid.h, fluid.kernel,
                                  fluid.eta2, dt, col_of, mirror)
-            u, fluid.viscous_stats = solve(A, fluid.v_old + dt * g + b_wall, fluid.v_old,
-                                           fluid.cfg.viscous_rtol)
+            u, fluid.viscous_stats = _solve_step(fluid, A, fluid.v_old + dt * g + b_wall,
+                                                 dt, col_of, mirror, stress)
             fluid.v_star[:] = u
         else:
             A, b_wall = assemble(fluid.x_all, fluid.vol_all, fluid.nu_all, fluid.v_all,
@@ -254,14 +385,105 @@ def predict(fluid, dt):
             # walls at their own velocity: the body force is added after the solve (a
             # split step), so that a fluid at rest gets exactly u* = dt g, which the
             # projection removes against the walls' u*_w = dt g of the PPE
-            u, fluid.viscous_stats = solve(A, fluid.v_old + b_wall, fluid.v_old,
-                                           fluid.cfg.viscous_rtol)
+            u, fluid.viscous_stats = _solve_step(fluid, A, fluid.v_old + b_wall, dt, col_of,
+                                                 None, stress)
             fluid.v_star[:] = u + dt * g
     else:
         K.predict_velocity(fluid.x_all, fluid.v_all, fluid.vol_all, nu_op,
                            fluid.ff_start, fluid.ff_j, nf, fluid.h, fluid.kernel, fluid.eta2,
                            g[0], g[1], dt, fluid.v_star)
+        if stress:  # the transposed part of div(2 eta D), explicit like the rest
+            fluid.v_star += dt * explicit_transpose_term(fluid, col_of)
     fluid.v_all[nf:] = fluid.v_b  # what the projection sees: the walls' own velocity
+
+
+def _solve_step(fluid, A, rhs, dt, col_of, mirror, stress):
+    """The implicit viscous solve: per component with the Morris matrix ``A``; with the
+    ``stress`` operator one coupled system for ``U = [u_x; u_y]``,
+    ``(blockdiag(A, A) - dt B) U = rhs + dt e`` (:func:`transpose_operator`)."""
+    if not stress:
+        return solve(A, rhs, fluid.v_old, fluid.cfg.viscous_rtol)
+    nf = fluid.nf
+    B, e = transpose_operator(fluid.x_all, fluid.vol_all, fluid.nu_all[:nf], fluid.L,
+                              fluid.ff_start, fluid.ff_j, nf, fluid.h, fluid.kernel, col_of,
+                              fluid.v_all, mirror)
+    A2 = sp.block_diag([A, A], format="csc") - dt * B
+    r2 = (rhs + dt * e).T.reshape(-1)
+    u, stats = solve_direct(A2, r2)
+    return u.reshape(2, nf).T, stats
+
+
+def solve_direct(A, b):
+    """Sparse LU (SuperLU) solve of the coupled system. Its nested operator reaches two
+    neighbour rings and is not symmetric; there the smoothed-aggregation set-up of the
+    AMG-Krylov path costs more per step than a direct factorisation at the sizes of the
+    mu(I) cases (2 nf <= ~10^4 unknowns). Returns ``(u, ViscousStats)``."""
+    from scipy.sparse.linalg import splu
+
+    t0 = time.perf_counter()
+    stats = ViscousStats()
+    if A.shape[0] == 0:
+        return np.zeros(0), stats
+    u = splu(sp.csc_matrix(A)).solve(b)
+    nb = np.linalg.norm(b)
+    stats.residual = float(np.linalg.norm(b - A @ u) / nb) if nb > 0 else 0.0
+    stats.time = time.perf_counter() - t0
+    return u, stats
+
+
+def wall_predicted_acceleration(fluid, col_of):
+    """``(u*_w - u_w) / dt`` of the boundary particles for the no-slip mirror (module
+    docstring): the Kim & Moin condition ``grad p^n / rho`` (:func:`wall_pressure_acceleration`),
+    both components. (Tried and dropped: the PPE's ``(g - a_w) . n`` normal to the wall with
+    the lagged pressure acceleration only along it, with or without a bound on the latter:
+    the a = 2 collapse blew up at 0.49 s when its front reached the end wall, the a = 8
+    column threw a particle 3.7 m high over the end wall.)"""
+    return wall_pressure_acceleration(fluid, col_of)
+
+
+def wall_pressure_acceleration(fluid, col_of):
+    """``grad p^n / rho`` at the boundary particles: the Shepard average over each boundary
+    particle's fluid neighbours of the fluid's pressure acceleration of the previous step,
+    with the operator of the correction step (``fluid.correct``: corrected [F 7, F 13] or
+    conservative [F 10], walls' pressures included; periodic images carry their
+    original's); 0 where a boundary particle has no fluid neighbour."""
+    nf = fluid.nf
+    jmax = nf + fluid.nw - fluid.ns
+    gp = np.zeros((len(fluid.x_all), 2))
+    if fluid.cfg.pressure_gradient == "conservative":
+        K.pressure_gradient(fluid.x_all, fluid.p_all, fluid.vol_all, fluid.ff_start,
+                            fluid.ff_j, nf, fluid.h, fluid.kernel, fluid.grad_scale, jmax,
+                            gp[:nf])
+    else:
+        K.corrected_pressure_gradient(fluid.x_all, fluid.p_all, fluid.vol_all, fluid.L,
+                                      fluid.ff_start, fluid.ff_j, nf, fluid.h, fluid.kernel,
+                                      jmax, gp[:nf])
+    gp[:nf] /= fluid.rho
+    fold = col_of >= 0
+    gp[fold] = gp[:nf][col_of[fold]]
+    xb = fluid.x_all[nf:]
+    out = np.zeros((len(xb), 2))
+    tmp = np.empty(len(xb))
+    for k in range(2):
+        K.shepard_at(xb, fluid.x_all, np.ascontiguousarray(gp[:, k]), fluid.wf_start,
+                     fluid.wf_j, fluid.h, fluid.kernel, tmp)
+        out[:, k] = np.where(np.isfinite(tmp), tmp, 0.0)
+    return out
+
+
+def explicit_transpose_term(fluid, col_of):
+    """``(1/rho) div(eta (grad u)^T)`` of the fluid rows at ``u^n`` (mirrored walls), gather
+    only: ``tau_i = nu_i (grad u_i)^T`` from the corrected gradient, then its corrected
+    divergence over the fluid neighbours (:func:`transpose_stress_divergence`)."""
+    nf = fluid.nf
+    tau = fluid.nu_all[:nf, None, None] * np.transpose(fluid.grad_v, (0, 2, 1))
+    fstart, fj = fluid_lists(fluid.ff_start, fluid.ff_j, col_of)
+    Lf = np.empty((nf, 2, 2))
+    K.correction_matrices(fluid.x_all, fluid.vol_all, fstart, fj, fluid.h, fluid.kernel, Lf)
+    out = np.empty((nf, 2))
+    transpose_stress_divergence(fluid.x_all, fluid.vol_all, np.ascontiguousarray(tau), fstart,
+                                fj, col_of, Lf, nf, fluid.h, fluid.kernel, out)
+    return out
 
 
 def wall_viscosity(fluid):
