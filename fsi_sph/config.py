@@ -336,9 +336,15 @@ class PPESection(_Model):
     """
 
     krylov: Literal["bicgstab", "gmres"] = Field(
-        "bicgstab", description="Krylov method (the matrix is not symmetric)")
+        "bicgstab", description="Krylov method (the matrix is not symmetric): BiCGStab (two "
+        "V-cycles per iteration) or flexible GMRES (one V-cycle per iteration)")
+    gmres_restart: Annotated[int, Field(ge=1)] = Field(
+        20, description="GMRES restart length (iterations per cycle)")
     amg: Literal["ruge_stuben", "smoothed_aggregation"] = Field(
         "ruge_stuben", description="AMG hierarchy used as the preconditioner")
+    strength_theta: Annotated[float, Field(gt=0.0, lt=1.0)] = Field(
+        0.25, description="Ruge-Stuben strength threshold: a_ij is a strong connection when "
+        "-a_ij >= theta max_k(-a_ik)")
     rtol: Annotated[float, Field(gt=0.0, lt=1.0)] = Field(
         1.0e-6, description="relative residual ||b - A p|| / ||b|| at which the solve stops")
     maxiter: Annotated[int, Field(ge=1)] = Field(200, description="Krylov iteration limit")

@@ -36,6 +36,8 @@ class PPEStats:
     solve_time: float = 0.0
     rebuilt: bool = False
     n_unknowns: int = 0
+    vcycles: int = 0  # preconditioner (AMG V-cycle) applications
+    matvecs: int = 0  # products with A, residual evaluations included
 
 
 def assemble(x, vol, alpha, source, L, consistent, f_start, f_j, w_start, w_j, nf, nw, h, kind,
@@ -93,6 +95,7 @@ class PressureSolver:
             # 10k/40k/160k unknowns of the dam break's PPE
             self.ml = pyamg.ruge_stuben_solver(
                 A, CF=("RS", {"second_pass": True}), max_coarse=500, coarse_solver="splu",
+                strength=("classical", {"theta": self.cfg.strength_theta}),
                 presmoother=("gauss_seidel", {"sweep": "forward"}),
                 postsmoother=("gauss_seidel", {"sweep": "backward"}))
         else:
@@ -145,17 +148,14 @@ class PressureSolver:
 
     def _krylov(self, A, b, x0, bnorm, stats):
         t0 = time.perf_counter()
-        if self.cfg.krylov == "bicgstab":
-            p, its, res = amg.bicgstab(amg.as_csr(A), b, x0, self.vcycle, self.cfg.rtol,
-                                       self.cfg.maxiter)
-            stats.iterations += its
-            stats.residual = res
-        else:
-            M = self.ml.aspreconditioner()
-            hist: list[float] = []
-            p, _ = pyamg.krylov.gmres(A, b, x0=x0, tol=self.cfg.rtol, maxiter=self.cfg.maxiter,
-                                      M=M, residuals=hist)
-            stats.iterations += max(len(hist) - 1, 0)
-            stats.residual = float(np.linalg.norm(b - A @ p)) / bnorm
+        counts = amg.Counts()
+        solver = amg.bicgstab if self.cfg.krylov == "bicgstab" else amg.fgmres
+        kw = {} if self.cfg.krylov == "bicgstab" else {"restart": self.cfg.gmres_restart}
+        p, its, res = solver(amg.as_csr(A), b, x0, self.vcycle, self.cfg.rtol, self.cfg.maxiter,
+                             counts=counts, **kw)
+        stats.iterations += its
+        stats.residual = res
+        stats.vcycles += counts.precond
+        stats.matvecs += counts.matvecs
         stats.solve_time += time.perf_counter() - t0
         return p
