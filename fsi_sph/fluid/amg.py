@@ -270,7 +270,11 @@ class VCycle:
         if A.shape != self.A[0].shape:
             raise ValueError(f"refresh_finest: {A.shape} instead of {self.A[0].shape}")
         self.A[0] = A if isinstance(A, _Csr) else _Csr(A)
-        self.smoothers[0] = _Smoother(self.A[0], block0)
+        if len(self.A) == 1:  # a one-level "hierarchy" is the LU solve of the matrix
+            self.lu = spla.splu(sp.csc_matrix(sp.csr_matrix(
+                (self.A[0].data, self.A[0].indices, self.A[0].indptr), shape=A.shape)))
+        else:
+            self.smoothers[0] = _Smoother(self.A[0], block0)
 
     def __call__(self, r):
         self.applications += 1

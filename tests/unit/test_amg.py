@@ -201,3 +201,14 @@ def test_kept_hierarchy_with_the_current_finest_matrix_is_as_good_as_a_new_one()
     assert fresh.rebuilt
     assert vc[True] <= fresh.vcycles + 1
     assert vc[False] >= 2 * vc[True]
+
+
+def test_refresh_of_a_one_level_hierarchy_is_the_new_lu():
+    A = _nonsymmetric(10)  # 100 rows: below max_coarse, one level
+    ml = pyamg.ruge_stuben_solver(A, max_coarse=500, coarse_solver="splu")
+    assert len(ml.levels) == 1
+    vc = amg.VCycle(ml)
+    A2 = sp.csr_matrix(A + sp.identity(A.shape[0]))
+    vc.refresh_finest(A2)
+    b = np.random.default_rng(5).random(A.shape[0])
+    assert np.allclose(A2 @ vc(b), b)
