@@ -184,18 +184,27 @@ class _Smoother:
     blocks' row lists (none: plain Gauss-Seidel)."""
 
     def __init__(self, A, block=None):
+        self._indices = np.empty(0, dtype=np.int32)
+        self._data = np.empty(0)
+        self.update(A, block)
+
+    def update(self, A, block=None):
+        """Rebuild from ``A`` (a :class:`_Csr`), reusing the arrays when they are large
+        enough (a refresh every step: no new memory to fault in)."""
         n = A.shape[0]
         self.n = n
         self.blocks = _Blocks(block) if block is not None else None
         bl = self.blocks.block if block is not None else np.empty(0, dtype=np.int32)
+        nnz = len(A.data)
+        if len(self._data) < nnz:
+            self._indices = np.empty(nnz, dtype=np.int32)
+            self._data = np.empty(nnz)
         self.indptr = np.empty(n + 1, dtype=np.int32)
-        indices = np.empty(len(A.data), dtype=np.int32)
-        data = np.empty(len(A.data))
         self.dinv = np.empty(n)
-        m = _split_off_diagonal(A.indptr, A.indices, A.data, bl, n, self.indptr, indices, data,
-                                self.dinv)
-        self.indices = indices[:m].copy()
-        self.data = data[:m].copy()
+        m = _split_off_diagonal(A.indptr, A.indices, A.data, bl, n, self.indptr, self._indices,
+                                self._data, self.dinv)
+        self.indices = self._indices[:m]
+        self.data = self._data[:m]
 
     def zeros(self):
         """A zero ``x`` for the sweeps (with room for the frozen copy when in blocks)."""
@@ -274,7 +283,7 @@ class VCycle:
             self.lu = spla.splu(sp.csc_matrix(sp.csr_matrix(
                 (self.A[0].data, self.A[0].indices, self.A[0].indptr), shape=A.shape)))
         else:
-            self.smoothers[0] = _Smoother(self.A[0], block0)
+            self.smoothers[0].update(self.A[0], block0)
 
     def __call__(self, r):
         self.applications += 1

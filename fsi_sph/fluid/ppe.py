@@ -129,16 +129,17 @@ class PressureSolver:
         bnorm = float(np.linalg.norm(b))
         if bnorm == 0.0:
             return np.zeros_like(b), stats
+        Ac = amg.as_csr(A)
         if self._needs_rebuild(A.shape[0]):
             self._timed_build(A, stats, nf)
         elif self.cfg.refresh_finest:
             # the kept hierarchy's coarse levels with this step's matrix on the finest level
-            self.vcycle.refresh_finest(A, amg.two_blocks(A, nf) if nf else None)
-        p = self._krylov(A, b, x0, bnorm, stats)
+            self.vcycle.refresh_finest(Ac, amg.two_blocks(A, nf) if nf else None)
+        p = self._krylov(Ac, b, x0, bnorm, stats)
         if stats.residual > self.cfg.rtol and not stats.rebuilt:
             # a stale hierarchy that no longer preconditions well: rebuild and solve again
             self._timed_build(A, stats, nf)
-            p = self._krylov(A, b, p, bnorm, stats)
+            p = self._krylov(Ac, b, p, bnorm, stats)
         self.last_iterations = stats.iterations
         if self.base_iterations is None:
             self.base_iterations = stats.iterations
@@ -155,11 +156,12 @@ class PressureSolver:
         stats.setup_time += time.perf_counter() - t0
 
     def _krylov(self, A, b, x0, bnorm, stats):
+        """``A``: the matrix as :func:`amg.as_csr` arrays."""
         t0 = time.perf_counter()
         counts = amg.Counts()
         solver = amg.bicgstab if self.cfg.krylov == "bicgstab" else amg.fgmres
         kw = {} if self.cfg.krylov == "bicgstab" else {"restart": self.cfg.gmres_restart}
-        p, its, res = solver(amg.as_csr(A), b, x0, self.vcycle, self.cfg.rtol, self.cfg.maxiter,
+        p, its, res = solver(A, b, x0, self.vcycle, self.cfg.rtol, self.cfg.maxiter,
                              counts=counts, **kw)
         stats.iterations += its
         stats.residual = res
