@@ -333,12 +333,19 @@ class PPESection(_Model):
     The AMG hierarchy is kept across steps as long as the iteration count stays low: it is
     rebuilt when a solve takes more than ``rebuild_growth`` times the iterations of the first
     solve after the last rebuild (and at least 2 more), or after ``rebuild_every`` steps.
+    Between rebuilds its finest level is the current matrix (``refresh_finest``).
     """
 
     krylov: Literal["bicgstab", "gmres"] = Field(
-        "bicgstab", description="Krylov method (the matrix is not symmetric)")
+        "gmres", description="Krylov method (the matrix is not symmetric): BiCGStab (two "
+        "V-cycles per iteration) or flexible GMRES (one V-cycle per iteration)")
+    gmres_restart: Annotated[int, Field(ge=1)] = Field(
+        20, description="GMRES restart length (iterations per cycle)")
     amg: Literal["ruge_stuben", "smoothed_aggregation"] = Field(
         "ruge_stuben", description="AMG hierarchy used as the preconditioner")
+    strength_theta: Annotated[float, Field(gt=0.0, lt=1.0)] = Field(
+        0.25, description="Ruge-Stuben strength threshold: a_ij is a strong connection when "
+        "-a_ij >= theta max_k(-a_ik)")
     rtol: Annotated[float, Field(gt=0.0, lt=1.0)] = Field(
         1.0e-6, description="relative residual ||b - A p|| / ||b|| at which the solve stops")
     maxiter: Annotated[int, Field(ge=1)] = Field(200, description="Krylov iteration limit")
@@ -347,6 +354,9 @@ class PPESection(_Model):
         "the iterations right after the last rebuild")
     rebuild_every: Annotated[int, Field(ge=1)] = Field(
         100, description="rebuild the AMG hierarchy at least every this many steps")
+    refresh_finest: bool = Field(
+        True, description="between rebuilds, smooth the finest AMG level with the current "
+        "matrix (coarse levels kept)")
 
 
 class ShiftingSection(_Model):

@@ -65,51 +65,74 @@ def residual_serial(indptr, indices, data, x, b, out):
 
 
 @njit(cache=True)
-def gauss_seidel_serial(indptr, indices, data, x, b, forward):
-    """One plain Gauss-Seidel sweep in place, on one thread."""
+def _sweep_rows(indptr, indices, data, dinv, xx, b, rows, lo, hi, forward):
+    """Gauss-Seidel over ``rows[lo:hi]`` (in increasing or decreasing order): row ``i`` of
+    the off-diagonal part (``indptr, indices, data``; column indices into ``xx``) and
+    ``x_i = (b_i - sum_j a_ij xx_j) / a_ii`` (``dinv`` = 1 / a_ii; a row with a_ii = 0, dinv
+    0, is left as it is)."""
+    m = hi - lo
+    for step in range(m):
+        i = rows[lo + (step if forward else m - 1 - step)]
+        s = b[i]
+        for k in range(indptr[i], indptr[i + 1]):
+            s -= data[k] * xx[indices[k]]
+        if dinv[i] != 0.0:
+            xx[i] = s * dinv[i]
+
+
+@njit(cache=True, parallel=True)
+def gauss_seidel(indptr, indices, data, dinv, xx, b, forward, rows, rows_start):
+    """One hybrid Gauss-Seidel sweep on ``A x = b`` in place, ``x = xx[:n]``.
+
+    The rows are split into blocks (block ``q`` holds ``rows[rows_start[q]:rows_start[q+1]]``)
+    swept in parallel: each block is a Gauss-Seidel sweep over its rows in increasing
+    (``forward``) or decreasing order that reads the other blocks' unknowns as they were
+    before the sweep, from ``xx[n:]`` (the off-diagonal columns of a row that lie in another
+    block point there: :class:`_Smoother`); no test of a column's block in the inner loop.
+    The result depends on the blocks only, never on the number of threads."""
+    n = b.shape[0]
+    for i in prange(n):
+        xx[n + i] = xx[i]
+    for q in prange(rows_start.shape[0] - 1):
+        _sweep_rows(indptr, indices, data, dinv, xx, b, rows, rows_start[q], rows_start[q + 1],
+                    forward)
+
+
+@njit(cache=True)
+def gauss_seidel_serial(indptr, indices, data, dinv, x, b, forward):
+    """One plain Gauss-Seidel sweep in place, on one thread (off-diagonal part and ``dinv``
+    as in :func:`gauss_seidel`)."""
     n = x.shape[0]
     for step in range(n):
         i = step if forward else n - 1 - step
         s = b[i]
-        diag = 0.0
+        for k in range(indptr[i], indptr[i + 1]):
+            s -= data[k] * x[indices[k]]
+        if dinv[i] != 0.0:
+            x[i] = s * dinv[i]
+
+
+@njit(cache=True)
+def _split_off_diagonal(indptr, indices, data, block, n, out_indptr, out_indices, out_data,
+                        dinv):
+    """The off-diagonal part of a CSR matrix (entries in the original order), 1 / the
+    diagonal (the sum of the diagonal entries; 0 where that is 0), and the columns of other
+    blocks than the row's (``block``; empty array: one block) moved to ``n + j``."""
+    m = 0
+    for i in range(n):
+        out_indptr[i] = m
+        d = 0.0
         for k in range(indptr[i], indptr[i + 1]):
             j = indices[k]
             if j == i:
-                diag += data[k]
+                d += data[k]
             else:
-                s -= data[k] * x[j]
-        if diag != 0.0:
-            x[i] = s / diag
-
-
-@njit(cache=True, parallel=True)
-def gauss_seidel(indptr, indices, data, x, b, forward, rows, rows_start, block, x_frozen):
-    """One hybrid Gauss-Seidel sweep on ``A x = b`` in place.
-
-    The rows are split into blocks (block ``q`` holds ``rows[rows_start[q]:rows_start[q+1]]``,
-    ``block[i]`` is the block of row ``i``), swept in parallel: each block is a Gauss-Seidel
-    sweep over its rows in increasing (``forward``) or decreasing order that reads the other
-    blocks' unknowns as they were before the sweep (``x_frozen``, work array). The result
-    depends on the blocks only, never on the number of threads; one block is plain
-    Gauss-Seidel."""
-    n = x.shape[0]
-    x_frozen[:n] = x
-    for q in prange(rows_start.shape[0] - 1):
-        m = rows_start[q + 1] - rows_start[q]
-        for step in range(m):
-            i = rows[rows_start[q] + (step if forward else m - 1 - step)]
-            s = b[i]
-            diag = 0.0
-            for k in range(indptr[i], indptr[i + 1]):
-                j = indices[k]
-                if j == i:
-                    diag += data[k]
-                elif block[j] == q:
-                    s -= data[k] * x[j]
-                else:
-                    s -= data[k] * x_frozen[j]
-            if diag != 0.0:
-                x[i] = s / diag
+                out_indices[m] = j if block.shape[0] == 0 or block[j] == block[i] else n + j
+                out_data[m] = data[k]
+                m += 1
+        dinv[i] = 1.0 / d if d != 0.0 else 0.0
+    out_indptr[n] = m
+    return m
 
 
 @njit(cache=True)
@@ -155,6 +178,48 @@ class _Blocks:
         return cls(np.zeros(n, dtype=np.int32))
 
 
+class _Smoother:
+    """Gauss-Seidel data of one level: the off-diagonal part of ``A`` (columns of another
+    block than the row's pointing at the frozen copy ``xx[n + j]``), ``1 / diag(A)``, the
+    blocks' row lists (none: plain Gauss-Seidel)."""
+
+    def __init__(self, A, block=None):
+        self._indices = np.empty(0, dtype=np.int32)
+        self._data = np.empty(0)
+        self.update(A, block)
+
+    def update(self, A, block=None):
+        """Rebuild from ``A`` (a :class:`_Csr`), reusing the arrays when they are large
+        enough (a refresh every step: no new memory to fault in)."""
+        n = A.shape[0]
+        self.n = n
+        self.blocks = _Blocks(block) if block is not None else None
+        bl = self.blocks.block if block is not None else np.empty(0, dtype=np.int32)
+        nnz = len(A.data)
+        if len(self._data) < nnz:
+            self._indices = np.empty(nnz, dtype=np.int32)
+            self._data = np.empty(nnz)
+        self.indptr = np.empty(n + 1, dtype=np.int32)
+        self.dinv = np.empty(n)
+        m = _split_off_diagonal(A.indptr, A.indices, A.data, bl, n, self.indptr, self._indices,
+                                self._data, self.dinv)
+        self.indices = self._indices[:m]
+        self.data = self._data[:m]
+
+    def zeros(self):
+        """A zero ``x`` for the sweeps (with room for the frozen copy when in blocks)."""
+        if self.blocks is None:
+            return np.zeros(self.n)
+        return np.zeros(2 * self.n)[:self.n]
+
+    def sweep(self, x, b, forward):
+        if self.blocks is None:
+            gauss_seidel_serial(self.indptr, self.indices, self.data, self.dinv, x, b, forward)
+        else:
+            gauss_seidel(self.indptr, self.indices, self.data, self.dinv, x.base, b, forward,
+                         self.blocks.rows, self.blocks.rows_start)
+
+
 PARALLEL_ROWS = 8000  # below this many rows a loop runs on one thread (fewer barriers)
 
 
@@ -198,45 +263,67 @@ class VCycle:
         self.R = [_Csr(lv.R) for lv in levels[:-1]]
         self.lu = spla.splu(sp.csc_matrix(levels[-1].A))
         self.work = [np.empty(a.shape[0]) for a in self.A]
-        self.frozen = np.empty(self.A[0].shape[0])
         # the finest level (most of the work) is smoothed in blocks, coarser ones plainly
-        n0 = self.A[0].shape[0]
-        self.blocks = [_Blocks(block0) if block0 is not None else _Blocks.single(n0)]
-        self.blocks += [_Blocks.single(a.shape[0]) for a in self.A[1:]]
+        self.smoothers = [_Smoother(a, block0 if lvl == 0 else None)
+                          for lvl, a in enumerate(self.A[:-1])]
+        self.applications = 0  # V-cycles applied so far (for the statistics)
+
+    def refresh_finest(self, A, block0=None):
+        """Smooth and compute residuals on the finest level with ``A`` (same size as the
+        matrix the hierarchy was built on), keeping the coarse levels, ``P`` and ``R``.
+
+        For the PPE of a later step this is nearly as good as a new hierarchy: on the dam
+        break at 43k unknowns a hierarchy 11 steps old takes 13 V-cycles (FGMRES) with its
+        own finest matrix, 5 with the current one, 6 with a fresh hierarchy. Costs one pass
+        over ``A`` (the off-diagonal split of :class:`_Smoother`)."""
+        if A.shape != self.A[0].shape:
+            raise ValueError(f"refresh_finest: {A.shape} instead of {self.A[0].shape}")
+        self.A[0] = A if isinstance(A, _Csr) else _Csr(A)
+        if len(self.A) == 1:  # a one-level "hierarchy" is the LU solve of the matrix
+            self.lu = spla.splu(sp.csc_matrix(sp.csr_matrix(
+                (self.A[0].data, self.A[0].indices, self.A[0].indptr), shape=A.shape)))
+        else:
+            self.smoothers[0].update(self.A[0], block0)
 
     def __call__(self, r):
+        self.applications += 1
         return self._cycle(0, np.ascontiguousarray(r, dtype=np.float64))
 
     def _cycle(self, lvl, b):
         if lvl == len(self.A) - 1:
             return self.lu.solve(b)
         A = self.A[lvl]
-        x = np.zeros_like(b)
-        self._smooth(lvl, x, b, True)
+        sm = self.smoothers[lvl]
+        x = sm.zeros()
+        sm.sweep(x, b, True)
         res = A.residual(x, b, self.work[lvl])
         xc = self._cycle(lvl + 1, self.R[lvl].matvec(res))
         x += self.P[lvl].matvec(xc)
-        self._smooth(lvl, x, b, False)
+        sm.sweep(x, b, False)
         return x
 
-    def _smooth(self, lvl, x, b, forward):
-        A = self.A[lvl]
-        bl = self.blocks[lvl]
-        if len(bl.rows_start) > 2:
-            gauss_seidel(A.indptr, A.indices, A.data, x, b, forward, bl.rows, bl.rows_start,
-                         bl.block, self.frozen)
-        else:
-            gauss_seidel_serial(A.indptr, A.indices, A.data, x, b, forward)
+
+class Counts:
+    """Work of one Krylov solve: preconditioner applications and products with ``A``
+    (residual evaluations included); counts that do not depend on the machine's load."""
+
+    def __init__(self):
+        self.precond = 0
+        self.matvecs = 0
 
 
-def bicgstab(A, b, x0, precond, rtol, maxiter):
+def bicgstab(A, b, x0, precond, rtol, maxiter, counts=None):
     """Right-preconditioned BiCGStab (van der Vorst 1992) for ``A x = b``.
 
     ``A`` is a :class:`_Csr`, ``precond`` a callable ``z = M r``. Stops when the true
     relative residual ``||b - A x|| / ||b||`` is at most ``rtol`` (the recurrence residual is
     checked first and then confirmed), or after ``maxiter`` iterations. Returns
-    ``(x, iterations, relative residual)``.
+    ``(x, iterations, relative residual)``. Each iteration applies ``precond`` and ``A``
+    twice; ``counts`` (a :class:`Counts`), if given, is incremented by what was done.
     """
+    counts = Counts() if counts is None else counts
+    A = _Counted(A, counts)
+    precond = _CountedPrecond(precond, counts)
     bnorm = float(np.linalg.norm(b))
     x = np.array(x0, dtype=np.float64)
     r = np.empty_like(b)
@@ -292,6 +379,220 @@ def bicgstab(A, b, x0, precond, rtol, maxiter):
     return x, it, float(np.linalg.norm(r)) / bnorm
 
 
+class _Counted:
+    """A :class:`_Csr` whose products are counted."""
+
+    def __init__(self, A, counts):
+        self._A = A
+        self._counts = counts
+        self.shape = A.shape
+
+    def matvec(self, x, out=None):
+        self._counts.matvecs += 1
+        return self._A.matvec(x, out)
+
+    def residual(self, x, b, out):
+        self._counts.matvecs += 1
+        return self._A.residual(x, b, out)
+
+
+class _CountedPrecond:
+    def __init__(self, precond, counts):
+        self._precond = precond
+        self._counts = counts
+
+    def __call__(self, r):
+        self._counts.precond += 1
+        return self._precond(r)
+
+
+# Dot products of the Gram-Schmidt step: the vector is cut into a fixed number of chunks
+# whose partial sums are added in chunk order, so the result does not depend on the number
+# of threads (a prange reduction's would); the chunks are processed in parallel.
+_CHUNKS = 64
+
+
+@njit(cache=True)
+def _chunk(n, c):
+    return c * n // _CHUNKS, (c + 1) * n // _CHUNKS
+
+
+@njit(cache=True)
+def _project_chunk(V, k, w, h, lo, hi, part):
+    """On ``w[lo:hi]``: the partial sums of ``V[i] . w`` (``part[i]``, ``i < k``) and of
+    ``w . w`` (``part[k]``); when ``h`` is not empty, first ``w -= V[:k].T h`` and then only
+    ``w . w`` (``part[:k]`` stay 0)."""
+    for i in range(k + 1):
+        part[i] = 0.0
+    if h.shape[0] > 0:
+        for t in range(lo, hi):
+            wt = w[t]
+            for i in range(k):
+                wt -= V[i, t] * h[i]
+            w[t] = wt
+            part[k] += wt * wt
+    else:
+        for t in range(lo, hi):
+            wt = w[t]
+            for i in range(k):
+                part[i] += V[i, t] * wt
+            part[k] += wt * wt
+
+
+@njit(cache=True, parallel=True)
+def _project_par(V, k, w, h, out):
+    n = w.shape[0]
+    parts = np.empty((_CHUNKS, k + 1))
+    for c in prange(_CHUNKS):
+        lo, hi = _chunk(n, c)
+        _project_chunk(V, k, w, h, lo, hi, parts[c])
+    for i in range(k + 1):
+        s = 0.0
+        for c in range(_CHUNKS):
+            s += parts[c, i]
+        out[i] = s
+
+
+@njit(cache=True)
+def _project_ser(V, k, w, h, out):
+    n = w.shape[0]
+    parts = np.empty((_CHUNKS, k + 1))
+    for c in range(_CHUNKS):
+        lo, hi = _chunk(n, c)
+        _project_chunk(V, k, w, h, lo, hi, parts[c])
+    for i in range(k + 1):
+        s = 0.0
+        for c in range(_CHUNKS):
+            s += parts[c, i]
+        out[i] = s
+
+
+@njit(cache=True, parallel=True)
+def _combine_par(Z, y, k, x):
+    """``x += Z[:k].T y``."""
+    for t in prange(x.shape[0]):
+        s = x[t]
+        for i in range(k):
+            s += Z[i, t] * y[i]
+        x[t] = s
+
+
+@njit(cache=True)
+def _combine_ser(Z, y, k, x):
+    for t in range(x.shape[0]):
+        s = x[t]
+        for i in range(k):
+            s += Z[i, t] * y[i]
+        x[t] = s
+
+
+_NO_H = np.empty(0)
+
+
+def _project(V, k, w, h=None):
+    """``(V[:k] w, w . w)`` in one pass; with ``h``: ``w -= V[:k].T h``, then ``w . w``
+    (returned as ``(None, w . w)``), also one pass."""
+    out = np.empty(k + 1)
+    f = _project_par if w.shape[0] >= PARALLEL_ROWS else _project_ser
+    f(V, k, w, _NO_H if h is None else h, out)
+    return (out[:k] if h is None else None), float(out[k])
+
+
+def fgmres(A, b, x0, precond, rtol, maxiter, restart=20, counts=None):
+    """Right-preconditioned flexible GMRES(``restart``) (Saad 1993) for ``A x = b``.
+
+    One application of ``precond`` and one product with ``A`` per iteration (BiCGStab needs
+    two of each). The preconditioned vectors ``z_j = M v_j`` are kept, so the update
+    ``x += Z y`` needs no further application (and a preconditioner that is not exactly
+    linear would do). Classical Gram-Schmidt (two passes over the basis: the dot products,
+    then the subtraction with the new norm), repeated once when the subtraction leaves less
+    than 1e-3 of the vector's norm (a cancellation of 1e3 costs about 1e-13 of
+    orthogonality; with a good preconditioner ``A M v_j`` is close to ``v_j``, so a
+    cancellation of ~10 is the rule and harmless); the dot products are fixed-order
+    chunked sums, so the result does not depend on the thread count. The Givens-rotation
+    residual estimate ends a cycle; the solve stops only when the true relative residual
+    ``||b - A x|| / ||b||`` is at most ``rtol`` (otherwise it restarts from it), or after
+    ``maxiter`` iterations. Returns ``(x, iterations, relative residual)``; ``counts`` as
+    in :func:`bicgstab`.
+    """
+    counts = Counts() if counts is None else counts
+    n = b.shape[0]
+    m = max(1, min(restart, maxiter))
+    bnorm = float(np.linalg.norm(b))
+    x = np.array(x0, dtype=np.float64)
+    r = np.empty(n)
+    A.residual(x, b, r)
+    counts.matvecs += 1
+    V0 = r[None, :]
+    beta = float(np.sqrt(_project(V0, 0, r)[1]))
+    rel = beta / bnorm
+    if rel <= rtol:
+        return x, 0, rel
+    V = np.empty((m + 1, n))
+    Z = np.empty((m, n))
+    H = np.zeros((m + 1, m))
+    cs = np.zeros(m)
+    sn = np.zeros(m)
+    g = np.zeros(m + 1)
+    it = 0
+    while it < maxiter and beta > 0.0:
+        np.divide(r, beta, out=V[0])
+        g[:] = 0.0
+        g[0] = beta
+        k = 0  # columns of this cycle
+        for j in range(m):
+            it += 1
+            counts.precond += 1
+            Z[j] = precond(V[j])
+            w = V[j + 1]
+            A.matvec(Z[j], w)
+            counts.matvecs += 1
+            h, ww0 = _project(V, j + 1, w)
+            _, ww = _project(V, j + 1, w, h)
+            if ww < 1e-6 * ww0:  # cancellation: orthogonalise once more
+                h2, _ = _project(V, j + 1, w)
+                _, ww = _project(V, j + 1, w, h2)
+                h = h + h2
+            hn = float(np.sqrt(ww))
+            col = np.empty(j + 2)
+            col[:j + 1] = h
+            col[j + 1] = hn
+            for i in range(j):  # previous rotations
+                t = cs[i] * col[i] + sn[i] * col[i + 1]
+                col[i + 1] = -sn[i] * col[i] + cs[i] * col[i + 1]
+                col[i] = t
+            d = float(np.hypot(col[j], col[j + 1]))
+            cs[j] = col[j] / d if d > 0.0 else 1.0
+            sn[j] = col[j + 1] / d if d > 0.0 else 0.0
+            col[j] = d
+            H[:j + 1, j] = col[:j + 1]
+            g[j + 1] = -sn[j] * g[j]
+            g[j] = cs[j] * g[j]
+            k = j + 1
+            if hn > 0.0:
+                w /= hn
+            if abs(g[j + 1]) <= rtol * bnorm or hn == 0.0 or it >= maxiter:
+                break
+        # y from the k x k triangular system, then x += Z y
+        y = np.zeros(k)
+        for i in range(k - 1, -1, -1):
+            y[i] = (g[i] - H[i, i + 1:k] @ y[i + 1:k]) / H[i, i] if H[i, i] != 0.0 else 0.0
+        _combine(Z, y, k, x)
+        A.residual(x, b, r)  # the true residual decides
+        counts.matvecs += 1
+        beta = float(np.sqrt(_project(V0, 0, r)[1]))
+        rel = beta / bnorm
+        if rel <= rtol:
+            break
+    return x, it, rel
+
+
+def _combine(Z, y, k, x):
+    """``x += Z[:k].T y``."""
+    f = _combine_par if x.shape[0] >= PARALLEL_ROWS else _combine_ser
+    f(Z, np.ascontiguousarray(y, dtype=np.float64), k, x)
+
+
 def warm_up():
     """Compile the loops on a tiny system."""
     A = sp.csr_matrix(np.array([[2.0, -1.0], [-1.0, 2.0]]))
@@ -303,8 +604,13 @@ def warm_up():
     residual(c.indptr, c.indices, c.data, x, b, out)
     spmv_serial(c.indptr, c.indices, c.data, x, out)
     residual_serial(c.indptr, c.indices, c.data, x, b, out)
-    gauss_seidel_serial(c.indptr, c.indices, c.data, x, b, True)
-    bl = _Blocks(np.array([0, 1], dtype=np.int32))
-    gauss_seidel(c.indptr, c.indices, c.data, x, b, True, bl.rows, bl.rows_start, bl.block,
-                 np.empty(2))
-    _boundary_blocks(c.indptr, c.indices, 1, bl.block)
+    for block in (None, np.array([0, 1], dtype=np.int32)):
+        sm = _Smoother(c, block)
+        sm.sweep(sm.zeros(), b, True)
+    _boundary_blocks(c.indptr, c.indices, 1, np.array([0, 1], dtype=np.int32))
+    V = np.ones((2, 2))
+    for f in (_project_par, _project_ser):
+        f(V, 1, x, _NO_H, out)
+        f(V, 1, x, np.ones(1), out)
+    _combine_par(V, np.ones(1), 1, x)
+    _combine_ser(V, np.ones(1), 1, x)
