@@ -139,6 +139,8 @@ class IncompressibleFluid:
         self.guard_force = np.zeros((self.ns, 2))
         self._guard_dv = np.zeros((self.nf, 2))  # work arrays of the kinematic guard
         self._guard_row = np.zeros(self.nf, dtype=np.int64)
+        self._shift_lo = np.full((self.nf, 3), -np.inf)  # the Taylor correction's limiter
+        self._shift_hi = np.full((self.nf, 3), np.inf)
         if self.walls is not None:
             xw = self.walls.body["x"]
             self.x_all[self.nf:self.nf + self.n_walls] = xw
@@ -317,8 +319,12 @@ class IncompressibleFluid:
             # off a wall they came too close to) added dr U / dx to its speed. A thin sheet
             # on the floor at 2 m/s threw particles at 5-9 m/s that way (measured).
             # (The viscosity laws keep their no-slip walls: viscous.py.)
-            self._gradients(free_slip=self.viscosity_law is None)
-        self.shifting.apply(b["dr"], self.grad_p, self.grad_v, b["x"], b["p"], b["v"])
+            free_slip = self.viscosity_law is None
+            self._gradients(free_slip=free_slip)
+            K.neighbour_bounds(self.p_all, self.v_all, self.ff_start, self.ff_j, self.nf,
+                               self.nf if free_slip else -1, self._shift_lo, self._shift_hi)
+        self.shifting.apply(b["dr"], self.grad_p, self.grad_v, self._shift_lo,
+                            self._shift_hi, b["x"], b["p"], b["v"])
         self._sync()
 
     def predict(self, dt):
@@ -559,7 +565,9 @@ def warm_up(kind):
     dr = np.zeros((n, 2))
     for model in (0, 1, 2):
         K.shift_vectors(x, v, vol, start, j, n, h, kind, model, 1.0, 0.0, 0.1, cls, nrm, dr)
-    K.apply_shift(dr, gp, gv, True, x, p, v)
+    lo, hi = np.zeros((n, 3)), np.zeros((n, 3))
+    K.neighbour_bounds(p, v, start, j, n, -1, lo, hi)
+    K.apply_shift(dr, gp, gv, True, lo, hi, x, p, v)
     K.wall_normals(x, vol, start, j, h, kind, nrm)
     K.boundary_guard(x, start, j, n, n, n, nrm, nrm, 0.5, v, vs, np.zeros((n, 2)),
                      np.zeros(n, dtype=np.int64))

@@ -29,6 +29,7 @@ class Shifting:
         K.shift_vectors(x, v, vol, nbr_start, nbr_j, nf, h, kind, self.model,
                         self.cfg.coefficient, dt, self.cap, classes, normals, out_dr)
 
-    def apply(self, dr, grad_p, grad_v, x, p, v):
-        """Move the particles and (if enabled) Taylor-correct ``p`` and ``v`` [F 33]."""
-        K.apply_shift(dr, grad_p, grad_v, self.cfg.taylor_correction, x, p, v)
+    def apply(self, dr, grad_p, grad_v, lo, hi, x, p, v):
+        """Move the particles and (if enabled) Taylor-correct ``p`` and ``v`` [F 33], within
+        the neighbourhood's range ``[lo, hi]`` (:func:`_kernels.neighbour_bounds`)."""
+        K.apply_shift(dr, grad_p, grad_v, self.cfg.taylor_correction, lo, hi, x, p, v)

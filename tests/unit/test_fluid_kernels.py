@@ -186,10 +186,44 @@ def test_apply_shift_taylor_corrects_linear_fields():
     gv[:, 0, 1] = 1.0
     p = np.array([1.0, 2.0])
     v = np.zeros((2, 2))
-    K.apply_shift(dr, gp, gv, True, x, p, v)
+    lo, hi = np.full((2, 3), -np.inf), np.full((2, 3), np.inf)
+    K.apply_shift(dr, gp, gv, True, lo, hi, x, p, v)
     assert_allclose(x, [[0.1, -0.2], [1.0, 1.05]])
     assert_allclose(p, [1.0 + 0.2 - 0.6, 2.05])
     assert_allclose(v, [[-0.2, 0.0], [0.05, 0.0]])
+
+
+def test_taylor_correction_stays_within_the_neighbourhood_range(perturbed):
+    """Linear fields are corrected exactly (the limiter does not act inside their range); an
+    outlier (one particle far faster than its neighbours, shifted away from them) is not
+    extrapolated beyond the neighbourhood's range."""
+    x = perturbed.copy()
+    n = len(x)
+    vol = np.ones(n)
+    s, j = nbrs(x)
+    L = np.zeros((n, 2, 2))
+    K.correction_matrices(x, vol, s, j, H, KIND, L)
+    p = 3.0 * x[:, 0] - 2.0 * x[:, 1]
+    v = np.column_stack([x[:, 1], 2.0 * x[:, 0]])
+    i = int(np.argmin(np.hypot(x[:, 0] - 6.0, x[:, 1] - 5.0)))  # an interior particle
+    for outlier in (False, True):
+        pp, vv, xx = p.copy(), v.copy(), x.copy()
+        if outlier:  # a fast jet below and at i, slow fluid above
+            vv[x[:, 1] < x[i, 1] + 0.3, 1] = 50.0
+        gp, gv = np.zeros((n, 2)), np.zeros((n, 2, 2))
+        K.gradients(xx, pp, vv, vol, L, s, j, n, H, KIND, gp, gv, -1)
+        lo, hi = np.zeros((n, 3)), np.zeros((n, 3))
+        K.neighbour_bounds(pp, vv, s, j, n, -1, lo, hi)
+        dr = np.zeros((n, 2))
+        dr[i] = [0.0, -0.1] if not outlier else [0.0, -0.5]
+        unlimited = vv[i, 1] + gv[i, 1, 1] * dr[i, 1]
+        K.apply_shift(dr, gp, gv, True, lo, hi, xx, pp, vv)
+        if not outlier:
+            assert_allclose(vv[i], [x[i, 1] - 0.1, 2.0 * x[i, 0]], atol=1e-10)
+            assert_allclose(pp[i], 3.0 * x[i, 0] - 2.0 * (x[i, 1] - 0.1), atol=1e-10)
+        else:
+            assert unlimited > 55.0  # the extrapolation overshoots the jet's own speed
+            assert vv[i, 1] == 50.0  # clamped to the neighbourhood's largest
 
 
 def test_wall_guard_removes_only_inward_velocity():
