@@ -83,3 +83,15 @@ def test_plot_skips_errors_a_record_lacks(tmp_path):
     recs = _result()["records"]
     recs[1]["errors"] = {"other_pct": 2.0}
     assert error_vs_time(recs, ["period_pct", "other_pct"], "t", tmp_path / "p.png").exists()
+
+
+def test_dam_break_disagreement_floor():
+    """Two data sets 10 % apart at one time: no curve is within 100 * 1/21 % of both there."""
+    import numpy as np
+
+    from validation.dam_break import disagreement_floor
+
+    T = np.array([0.5, 1.0, 1.5])
+    data = {"koshizuka": (T, np.array([1.1, 2.2, 3.0])),
+            "martin_moyce": (T, np.array([1.0, 2.0, 3.0]))}
+    assert abs(disagreement_floor(data) - 100 * 0.1 / 2.1) < 1e-9
