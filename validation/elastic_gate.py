@@ -96,12 +96,16 @@ def plot(runs, data_dir, path):
 
     folder = Path(data_dir) / "antoci2007_elastic_gate"
     fig, axes = plt.subplots(1, 2, figsize=(10, 4), layout="constrained")
-    for ax, comp, exp, sph in ((axes[0], 0, "exp_x_Ex10X.txt", "antoci_sph_x.txt"),
-                               (axes[1], 1, "exp_y_Ex10Y.txt", "antoci_sph_y.txt")):
+    for ax, comp, exp, sph, yang in (
+            (axes[0], 0, "exp_x_Ex10X.txt", "antoci_sph_x.txt", "yang2012_sphfem_x.txt"),
+            (axes[1], 1, "exp_y_Ex10Y.txt", "antoci_sph_y.txt", "yang2012_sphfem_y.txt")):
         te, de = load_curve(folder / exp)
         ts, ds = load_curve(folder / sph)
         ax.plot(te, 1e3 * de, "ko", label="experiment (Antoci 2007)")
         ax.plot(ts, 1e3 * ds, "k--", lw=1, label="SPH, Antoci 2007")
+        if (folder / yang).exists():
+            ty, dy = load_curve(folder / yang)
+            ax.plot(ty, 1e3 * dy, "k:", lw=1.2, label="SPH-FEM, Yang et al. 2012")
         for label, (t, ux, uy) in runs.items():
             ax.plot(t, 1e3 * (ux if comp == 0 else uy), lw=1.5, label=f"fsi_sph, {label}")
         ax.set_xlabel("t (s)")
