@@ -127,6 +127,23 @@ def surface_classes(x, is_surface, n_nbr, grad_c, nbr_start, nbr_j, nf, h, out_c
                 out_normal[i, 1] = -grad_c[jb, 1] / g
 
 
+@njit(cache=True, inline="always")
+def corrected_pair_gradient(x, vol, L, i, j, h, kind):
+    """``V_j L_i grad_i W_ij`` [F 7, F 13-14], the weight of pair ``(i, j)`` in the corrected
+    consistent gradient ``grad phi_i = sum_j (phi_j - phi_i) V_j L_i grad W_ij``; ``(0, 0)``
+    for coincident particles."""
+    d0 = x[i, 0] - x[j, 0]
+    d1 = x[i, 1] - x[j, 1]
+    r = math.sqrt(d0 * d0 + d1 * d1)
+    if r < 1e-12 * h:
+        return 0.0, 0.0
+    dw = kernel_dw(kind, r, h)
+    w0 = dw * d0 / r
+    w1 = dw * d1 / r
+    return (vol[j] * (L[i, 0, 0] * w0 + L[i, 0, 1] * w1),
+            vol[j] * (L[i, 1, 0] * w0 + L[i, 1, 1] * w1))
+
+
 @njit(cache=True, parallel=True)
 def gradients(x, p, v, vol, L, nbr_start, nbr_j, nf, h, kind, out_grad_p, out_grad_v,
               jv=-1):
@@ -147,16 +164,7 @@ def gradients(x, p, v, vol, L, nbr_start, nbr_j, nf, h, kind, out_grad_p, out_gr
         g11 = 0.0
         for k in range(nbr_start[i], nbr_start[i + 1]):
             j = nbr_j[k]
-            d0 = x[i, 0] - x[j, 0]
-            d1 = x[i, 1] - x[j, 1]
-            r = math.sqrt(d0 * d0 + d1 * d1)
-            if r < 1e-12 * h:
-                continue
-            dw = kernel_dw(kind, r, h)
-            w0 = dw * d0 / r
-            w1 = dw * d1 / r
-            c0 = vol[j] * (L[i, 0, 0] * w0 + L[i, 0, 1] * w1)
-            c1 = vol[j] * (L[i, 1, 0] * w0 + L[i, 1, 1] * w1)
+            c0, c1 = corrected_pair_gradient(x, vol, L, i, j, h, kind)
             dp = p[j] - p[i]
             gp0 += dp * c0
             gp1 += dp * c1

@@ -141,6 +141,8 @@ class IncompressibleFluid:
         self._guard_row = np.zeros(self.nf, dtype=np.int64)
         self._shift_lo = np.full((self.nf, 3), -np.inf)  # the Taylor correction's limiter
         self._shift_hi = np.full((self.nf, 3), np.inf)
+        self._shift_scratch = np.zeros((self.nf, 2))  # work arrays of the shift's guard
+        self._zero_b = np.zeros((self.nw, 2))  # (grown when periodic images are added)
         if self.walls is not None:
             xw = self.walls.body["x"]
             self.x_all[self.nf:self.nf + self.n_walls] = xw
@@ -438,43 +440,46 @@ class IncompressibleFluid:
         self._guard(dt, v)
         b["x"] += 0.5 * dt * (self.v_old + v)
 
+    def _guard_ranges(self):
+        """The kinematic guard's source ranges and distances: the fixed walls (and their
+        periodic images) from dx/2, the coupled structures from 2h/3, where the cubic
+        spline's kernel gradient peaks. Closer to a structure than that, the pair repulsion
+        [F 46-47] weakens as a fluid particle approaches, the fluid pressure behind it wins,
+        and it drifts into the surface layer (seen on the gate's upstream face: particles
+        sliding down it at 0.3-0.5 dx from its particles, some ending between them). (The
+        walls keep dx/2: thick layers, no such drift seen.)"""
+        nf, nwall = self.nf, self.nw - self.ns
+        return ((nf, nf + nwall, 0.5 * self.dx), (nf + nwall, nf + self.nw, 2.0 * self.h / 3.0))
+
     def _guard_shift(self, dr):
         """No shift into a boundary: within the guard distance of a wall or structure surface
-        (:meth:`_guard`) the inward part of the shift ``dr`` is removed. Close to a boundary
-        particle the colour gradient of the shift weakens as the kernel gradient does, and
-        the shift alone walked particles into the gate's surface layer (measured)."""
+        (:meth:`_guard_ranges`) the inward part of the shift ``dr`` is removed. Close to a
+        boundary particle the colour gradient of the shift weakens as the kernel gradient
+        does, and the shift alone walked particles into the gate's surface layer (measured)."""
         nf = self.nf
-        nwall = self.nw - self.ns
-        zero = np.zeros((self.nw, 2))
-        scratch = np.zeros((nf, 2))
-        for lo, hi, gap in ((nf, nf + nwall, 0.5 * self.dx),
-                            (nf + nwall, nf + self.nw, 2.0 * self.h / 3.0)):
-            if hi > lo:
+        if len(self._zero_b) < self.nw:  # periodic images change the boundary count
+            self._zero_b = np.zeros((self.nw, 2))
+        for lo, hi, gap in self._guard_ranges():
+            if hi > lo:  # boundary at rest for a shift; _shift_scratch takes the unused v_old
                 K.boundary_guard(self.x_all, self.ff_start, self.ff_j, nf, lo, hi,
-                                 self.wall_n[lo - nf:hi - nf], zero[lo - nf:hi - nf], gap,
-                                 scratch, dr, self._guard_dv, self._guard_row)
+                                 self.wall_n[lo - nf:hi - nf], self._zero_b[lo - nf:hi - nf],
+                                 gap, self._shift_scratch, dr, self._guard_dv, self._guard_row)
 
     def _guard(self, dt, v):
-        """The kinematic guard (:func:`_kernels.boundary_guard`) at the fixed walls, then at
-        the coupled structures' surfaces; there the fluid's momentum change goes to the
-        structure particles as ``self.guard_force`` (N/m per structure particle), opposite
-        and equal."""
+        """The kinematic guard (:func:`_kernels.boundary_guard`, :meth:`_guard_ranges`) at the
+        fixed walls, then at the coupled structures' surfaces; there the fluid's momentum
+        change goes to the structure particles as ``self.guard_force`` (N/m per structure
+        particle), opposite and equal."""
         nf = self.nf
-        nwall = self.nw - self.ns  # the walls (and their periodic images), then structures
-        if nwall:
-            K.boundary_guard(self.x_all, self.ff_start, self.ff_j, nf, nf, nf + nwall,
-                             self.wall_n[:nwall], self.v_b[:nwall], 0.5 * self.dx, self.v_old,
-                             v, self._guard_dv, self._guard_row)
-        if self.ns:
-            # At a structure the guard acts from 2h/3 on, where the cubic spline's kernel
-            # gradient peaks: closer than that the pair repulsion [F 46-47] weakens as a
-            # fluid particle approaches, the fluid pressure behind it wins, and it drifts
-            # into the surface layer (seen on the gate's upstream face: particles sliding down
-            # it at 0.3-0.5 dx from its particles, some ending between them). (The walls keep
-            # dx/2: thick layers, no such drift seen.)
-            K.boundary_guard(self.x_all, self.ff_start, self.ff_j, nf, nf + nwall,
-                             nf + self.nw, self.wall_n[nwall:], self.v_b[nwall:],
-                             2.0 * self.h / 3.0, self.v_old, v, self._guard_dv, self._guard_row)
+        (wlo, whi, wgap), (slo, shi, sgap) = self._guard_ranges()
+        if whi > wlo:
+            K.boundary_guard(self.x_all, self.ff_start, self.ff_j, nf, wlo, whi,
+                             self.wall_n[:whi - nf], self.v_b[:whi - nf], wgap, self.v_old, v,
+                             self._guard_dv, self._guard_row)
+        if shi > slo:
+            K.boundary_guard(self.x_all, self.ff_start, self.ff_j, nf, slo, shi,
+                             self.wall_n[slo - nf:], self.v_b[slo - nf:], sgap, self.v_old, v,
+                             self._guard_dv, self._guard_row)
             self.guard_force[:] = 0.0
             hit = self._guard_row >= 0
             if hit.any():

@@ -72,17 +72,12 @@ class Periodic:
         self.src = np.zeros(0, np.int64)   # global rows of their originals
 
     def _periodic_wall_normals(self, fluid):
-        from fsi_sph.fluid import _kernels as K
-
+        """The walls' normals (:meth:`IncompressibleFluid._fixed_wall_normals`) over the
+        walls and their periodic images."""
         xw = fluid.walls.body["x"]
         xi = xw[self.wall_idx].copy()
         xi[:, 0] += self.wall_shift
-        xb = np.vstack([xw, xi])
-        start, j = find_neighbors(xb, xb, SUPPORT * fluid.h, exclude_self=True)
-        normals = np.zeros((len(xb), 2))
-        K.wall_normals(xb, np.full(len(xb), fluid.dx * fluid.dx), start, j, fluid.h,
-                       fluid.kernel, normals)
-        return normals[:len(xw)]
+        return fluid._fixed_wall_normals(np.vstack([xw, xi]))[:len(xw)]
 
     # ------------------------------------------------------------------ layout
     def rebuild(self, fluid):

@@ -110,19 +110,8 @@ def pair_gradient_weights(x, vol, L, nbr_start, nbr_j, nf, h, kind, out_g):
     ``grad phi_i = sum_j out_g[k] (phi_j - phi_i)``."""
     for i in range(nf):
         for k in range(nbr_start[i], nbr_start[i + 1]):
-            j = nbr_j[k]
-            d0 = x[i, 0] - x[j, 0]
-            d1 = x[i, 1] - x[j, 1]
-            r = math.sqrt(d0 * d0 + d1 * d1)
-            if r < 1e-12 * h:
-                out_g[k, 0] = 0.0
-                out_g[k, 1] = 0.0
-                continue
-            dw = kernel_dw(kind, r, h)
-            w0 = dw * d0 / r
-            w1 = dw * d1 / r
-            out_g[k, 0] = vol[j] * (L[i, 0, 0] * w0 + L[i, 0, 1] * w1)
-            out_g[k, 1] = vol[j] * (L[i, 1, 0] * w0 + L[i, 1, 1] * w1)
+            out_g[k, 0], out_g[k, 1] = K.corrected_pair_gradient(x, vol, L, i, nbr_j[k], h,
+                                                                 kind)
 
 
 @njit(cache=True, parallel=True)
@@ -139,16 +128,7 @@ def transpose_stress_divergence(x, vol, tau, fstart, fj, col_of, Lf, nf, h, kind
         for k in range(fstart[i], fstart[i + 1]):
             j = fj[k]
             c = col_of[j]
-            d0 = x[i, 0] - x[j, 0]
-            d1 = x[i, 1] - x[j, 1]
-            r = math.sqrt(d0 * d0 + d1 * d1)
-            if r < 1e-12 * h:
-                continue
-            dw = kernel_dw(kind, r, h)
-            w0 = dw * d0 / r
-            w1 = dw * d1 / r
-            g0 = vol[j] * (Lf[i, 0, 0] * w0 + Lf[i, 0, 1] * w1)
-            g1 = vol[j] * (Lf[i, 1, 0] * w0 + Lf[i, 1, 1] * w1)
+            g0, g1 = K.corrected_pair_gradient(x, vol, Lf, i, j, h, kind)
             a0 += (tau[c, 0, 0] - tau[i, 0, 0]) * g0 + (tau[c, 0, 1] - tau[i, 0, 1]) * g1
             a1 += (tau[c, 1, 0] - tau[i, 1, 0]) * g0 + (tau[c, 1, 1] - tau[i, 1, 1]) * g1
         out[i, 0] = a0
@@ -370,8 +350,12 @@ def predict(fluid, dt):
             # docstring). Along a side wall of a column at rest that is dt g, the gravity
             # increment the fluid beside it gets, so the no-slip wall does not drag it.
             S, target = mirror
-            mirror = (S, wall_target(S, fluid.v_b + dt * wall_predicted_acceleration(fluid,
-                                                                                     col_of)))
+            # (Tried and dropped: the PPE's (g - a_w) . n normal to the wall with the lagged
+            # pressure acceleration only along it, with or without a bound on the latter:
+            # the a = 2 collapse blew up at 0.49 s when its front reached the end wall, the
+            # a = 8 column threw a particle 3.7 m high over the end wall.)
+            mirror = (S, wall_target(S, fluid.v_b + dt * wall_pressure_acceleration(fluid,
+                                                                                    col_of)))
             A, b_wall = assemble(fluid.x_all, fluid.vol_all, nu_op, fluid.v_all,
                                  fluid.ff_start, fluid.ff_j, nf, fluid.h, fluid.kernel,
                                  fluid.eta2, dt, col_of, mirror)
@@ -429,16 +413,6 @@ def solve_direct(A, b):
     stats.residual = float(np.linalg.norm(b - A @ u) / nb) if nb > 0 else 0.0
     stats.time = time.perf_counter() - t0
     return u, stats
-
-
-def wall_predicted_acceleration(fluid, col_of):
-    """``(u*_w - u_w) / dt`` of the boundary particles for the no-slip mirror (module
-    docstring): the Kim & Moin condition ``grad p^n / rho`` (:func:`wall_pressure_acceleration`),
-    both components. (Tried and dropped: the PPE's ``(g - a_w) . n`` normal to the wall with
-    the lagged pressure acceleration only along it, with or without a bound on the latter:
-    the a = 2 collapse blew up at 0.49 s when its front reached the end wall, the a = 8
-    column threw a particle 3.7 m high over the end wall.)"""
-    return wall_pressure_acceleration(fluid, col_of)
 
 
 def wall_pressure_acceleration(fluid, col_of):
