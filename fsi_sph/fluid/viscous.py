@@ -73,6 +73,7 @@ import scipy.sparse as sp
 from numba import njit, prange
 
 from fsi_sph.fluid import _kernels as K
+from fsi_sph.fluid.isph import DIVR_FULL
 from fsi_sph.sph.kernels import kernel_dw, kernel_w
 
 
@@ -101,6 +102,29 @@ def pair_coefficients(x, vol, nu, nbr_start, nbr_j, nf, h, kind, eta2, out_c):
                 out_c[k] = 0.0
                 continue
             out_c[k] = -vol[j] * (nu[i] + nu[j]) * r * kernel_dw(kind, r, h) / (r2 + eta2)
+
+
+@njit(cache=True)
+def local_lap_scales(x, vol, nbr_start, nbr_j, nf, h, kind, eta2, divr, divr_full, lap_scale,
+                     out):
+    """Per-particle normalisation ``4 / sum_j c_ij r_ij^2`` of the Morris operator (``c_ij``
+    without the viscosity) on the particles' own arrangement; ``lap_scale`` (the square
+    lattice's) where the support is truncated (``divr < divr_full``)."""
+    for i in range(nf):
+        if divr[i] < divr_full:
+            out[i] = lap_scale
+            continue
+        m = 0.0
+        for k in range(nbr_start[i], nbr_start[i + 1]):
+            j = nbr_j[k]
+            d0 = x[i, 0] - x[j, 0]
+            d1 = x[i, 1] - x[j, 1]
+            r2 = d0 * d0 + d1 * d1
+            r = math.sqrt(r2)
+            if r < 1e-12 * h:
+                continue
+            m -= 2.0 * vol[j] * r * kernel_dw(kind, r, h) * r2 / (r2 + eta2)
+        out[i] = 4.0 / m
 
 
 @njit(cache=True)
@@ -334,13 +358,7 @@ def predict(fluid, dt):
         wall_viscosity(fluid)
     fluid.v_old[:] = b["v"]
     g = fluid.gravity
-    # The Morris operator with the lattice normalisation of the PPE (docs/fluid.md): on a
-    # regular lattice its second moment is 3.92 instead of 4 (h = 1.2 dx), i.e. the viscous
-    # stress 2 % low. For a Newtonian fluid that is a 2 % viscosity error; for the mu(I) law
-    # the flow makes up for it with a 2 % larger friction coefficient, and near mu_s that is
-    # a ~20 % larger inertial number (dI/I ~ 9 dmu/mu on the Bagnold case). Scaling nu
-    # (the operator is linear in it) keeps the plain Newtonian path as it was.
-    nu_op = fluid.nu_all * fluid.lap_scale if law.kind != "newtonian" else fluid.nu_all
+    nu_op = morris_viscosity(fluid) if law.kind != "newtonian" else fluid.nu_all
     if fluid.cfg.viscous_step == "implicit":
         if mirror is not None:
             # the walls are mirrored about their predicted intermediate velocity, the
@@ -379,6 +397,31 @@ def predict(fluid, dt):
         if stress:  # the transposed part of div(2 eta D), explicit like the rest
             fluid.v_star += dt * explicit_transpose_term(fluid, col_of)
     fluid.v_all[nf:] = fluid.v_b  # what the projection sees: the walls' own velocity
+
+
+def morris_viscosity(fluid):
+    """``nu_i s_i`` for the Morris operator of a non-Newtonian law, ``s_i`` the particle's own
+    normalisation ``4 / sum_j c_ij r_ij^2`` (:func:`local_lap_scales`).
+
+    The operator's second moment depends on the particle arrangement: the square lattice's
+    is 3.92 instead of 4 (h = 1.2 dx; the PPE's ``lap_scale`` corrects that), and in a
+    sheared layer, whose rows slide over each other, it is another 0.2-2.3 % above the
+    lattice's (mean 1 %, measured on the Bagnold layer). For a Newtonian fluid that is a
+    1 % viscosity error; for the mu(I) law near mu_s, where dI/I ~ 21 dmu, the flow makes up
+    for a 1 % stronger operator with a ~20 % smaller inertial number: the Bagnold layer ran
+    10-18 % slow with the lattice constant (docs/fluid.md). The pair coefficient
+    ``(nu_i s_i + nu_j s_j)`` stays symmetric (momentum is conserved); particles with a
+    truncated support (free surface) and boundary particles keep the lattice constant, so
+    that the pairwise flux near a free surface is the interior one."""
+    nf = fluid.nf
+    sc = np.full(len(fluid.x_all), fluid.lap_scale)
+    local_lap_scales(fluid.x_all, fluid.vol_all, fluid.ff_start, fluid.ff_j, nf, fluid.h,
+                     fluid.kernel, fluid.eta2, fluid.body["divr"], DIVR_FULL, fluid.lap_scale,
+                     sc)
+    if fluid.periodic is not None:
+        rows, src = fluid.periodic.fluid_images()
+        sc[rows] = sc[src]
+    return fluid.nu_all * sc
 
 
 def _solve_step(fluid, A, rhs, dt, col_of, mirror, stress):
