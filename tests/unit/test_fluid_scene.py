@@ -97,3 +97,17 @@ def test_smagorinsky_and_shifting_run():
         sim.step()
     sim.check()
     assert sim.timings["shift"] > 0
+
+
+def test_last_step_is_not_a_sliver(tmp_path):
+    """A run whose end is 0.1 dt past a whole number of steps ends with two half steps
+    (1.05 dt in all), not with a step of 0.1 dt (fsi_sph/simulation.py, ``to_end``)."""
+    text = FLUID.replace("t_end = 0.02", "t_end = 0.0041") + "\n[fluid.ppe]\n"
+    text = text.replace("[walls]", "dt_max = 1.0e-3\n[walls]")
+    sim = Simulation(load_config(None, text=text))
+    sim.run(out_dir=tmp_path, progress=False)
+    with h5py.File(tmp_path / "run.h5", "r") as f:
+        dt = f["steps"][()][:, 1]
+    assert dt[:3] == pytest.approx([1e-3] * 3, rel=1e-12)
+    assert dt[3:] == pytest.approx([0.55e-3, 0.55e-3], rel=1e-9)
+    assert sim.t == pytest.approx(0.0041, rel=1e-12)
