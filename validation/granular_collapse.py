@@ -60,6 +60,18 @@ def deposit_front(x, dx):
     return float(x[main, 0].max()), int(len(x) - main.sum())
 
 
+def body_front(x, dx, rows=3):
+    """End of the deposit's body: the largest x up to which every column of width dx from
+    the back wall holds at least ``rows`` particles. Beyond it lies the thin carpet that the
+    run-out of :func:`deposit_front` includes when it is connected (a diagnostic, recorded
+    beside the run-out; the criterion keeps the connected deposit)."""
+    bins = np.floor(x[:, 0] / dx).astype(np.int64)
+    counts = np.bincount(bins[bins >= 0])
+    thin = np.flatnonzero(counts < rows)
+    end = int(thin[0]) if len(thin) else len(counts)
+    return end * dx
+
+
 def overrides(a, n_particles):
     """--set overrides of the case for aspect ratio ``a``."""
     h0 = a * L0
@@ -97,6 +109,8 @@ def validate(quick, data_dir, out_dir):
         records.append(record(label, dx, summary, {f"runout_pct_a{a:g}": err}, {
             "aspect_ratio": a, "L0_over_dx": L0 / dx, "runout_sim": r_sim, "runout_ref": r_ref,
             "reference_law": law, "L_inf_m": front, "surge_front_m": sim.fluid.surge_front(),
+            "body_front_m": body_front(x, dx),
+            "runout_body": (body_front(x, dx) - L0) / L0,
             "particles_detached": n_detached,
             "front_at_end_wall": bool(front >= _tank_length(over) - 2.0 * dx),
             "final_height_over_L0": float(x[x[:, 0] < dx, 1].max(initial=0.0) / L0),
