@@ -107,9 +107,9 @@ def pair_coefficients(x, vol, nu, nbr_start, nbr_j, nf, h, kind, eta2, out_c):
 @njit(cache=True)
 def local_lap_scales(x, vol, nbr_start, nbr_j, nf, h, kind, eta2, divr, divr_full, lap_scale,
                      out):
-    """Per-particle normalisation ``4 / sum_j c_ij r_ij^2`` of the Morris operator (``c_ij``
-    without the viscosity) on the particles' own arrangement; ``lap_scale`` (the square
-    lattice's) where the support is truncated (``divr < divr_full``)."""
+    """Per-particle normalisation ``4 / sum_j c_ij r_ij^2`` of the Morris operator [F 11-12]
+    (``c_ij`` without the viscosity) on the particles' own arrangement; ``lap_scale`` (the
+    square lattice's) where the support is truncated (``divr < divr_full``)."""
     for i in range(nf):
         if divr[i] < divr_full:
             out[i] = lap_scale
