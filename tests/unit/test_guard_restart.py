@@ -112,3 +112,35 @@ def test_restart_bad_input(case_file, tmp_path, capsys):
                  str(tmp_path / "a" / "run.h5"), "--no-progress"]) == 2
     err = capsys.readouterr().err
     assert "Traceback" not in err and "shape" in err
+
+
+def test_loading_a_state_with_another_number_of_periodic_images():
+    """The periodic images come and go between steps, so a saved ``p_all`` (fluid, walls,
+    images) may be longer or shorter than the scene's: the guard's last-good write and a
+    restart load the fluid and wall part (a periodic run that failed used to end in a
+    traceback here instead of writing its last good state)."""
+    import numpy as np
+
+    from fsi_sph.config import load_config
+    from fsi_sph.simulation import Simulation
+
+    text = """
+[case]
+t_end = 0.01
+dx = 0.05
+[fluid]
+material = { rho0 = 1000.0 }
+blocks = [{ origin = [0.0, 0.0], size = [0.5, 0.3] }]
+periodic_x = [0.0, 0.5]
+[walls]
+boxes = [{ origin = [0.0, -0.15], size = [0.5, 0.15] }]
+"""
+    sim = Simulation(load_config(None, text=text))
+    sim.step()
+    fluid = sim.fluid
+    n = fluid.nf + fluid.n_walls
+    for extra in (1, -1):
+        saved = np.arange(len(fluid.p_all) + extra, dtype=float)
+        fluid.load_extra_state({"p_all": saved})
+        assert np.array_equal(fluid.p_all[:n], saved[:n])
+        assert np.array_equal(fluid.walls.body["p"], saved[fluid.nf:n])
