@@ -422,6 +422,12 @@ class FluidSection(_Model):
         "morris", description="`morris`: the viscous term is div(eta grad u) [F 11-12] per "
         "velocity component; `stress`: div(2 eta D), the Morris form plus the divergence of "
         "eta (grad u)^T, which differs where eta varies (mu(I) law; fsi_sph/fluid/viscous.py)")
+    projection: Literal["standard", "incremental"] = Field(
+        "standard", description="`standard`: the non-incremental projection [F 16-18], the "
+        "PPE for p^{n+1}; `incremental`: the pressure-correction form (Goda 1979, van Kan "
+        "1986): u* with the lagged pressure acceleration -grad p^n / rho, the PPE for the "
+        "increment phi = p^{n+1} - p^n, u^{n+1} = u* - dt grad phi / rho (fsi_sph/fluid/isph.py; "
+        "fixed walls and periodicity only, no coupled structures)")
     periodic_x: Vec2 | None = Field(
         None, description="[x_min, x_max] (m): the fluid (and its walls) is periodic in x "
         "with period x_max - x_min (fsi_sph/fluid/periodic.py); absent: not periodic")
@@ -543,6 +549,10 @@ class Config(_Model):
                     "beside it pushes the fluid off the structure under a uniform pressure)")
             if self.fluid.periodic_x is not None:
                 raise ValueError("[coupling] with fluid.periodic_x is not supported")
+            if self.fluid.projection == "incremental":
+                raise ValueError("[coupling] with fluid.projection = \"incremental\" is not "
+                                 "supported (the structures' predicted velocity in the "
+                                 "increment's PPE is not worked out)")
             for k, name in enumerate(self.coupling.structures):
                 if name not in self.solid:
                     raise ValueError(f"coupling.structures[{k}] = {name!r} names no solid; "

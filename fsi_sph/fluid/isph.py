@@ -12,6 +12,17 @@ One fluid step ``dt`` (the order :meth:`Simulation.step` calls the verbs in):
 6. ``correct``: ``u^{n+1} = u* - dt grad p / rho`` [F 18] and
    ``r^{n+1} = r^n + dt (u^n + u^{n+1}) / 2`` [F 19].
 
+With ``fluid.projection = "incremental"`` (pressure correction: Goda 1979, J. Comput. Phys.
+30:76; van Kan 1986, SIAM J. Sci. Stat. Comput. 7:870) steps 4-6 become::
+
+    u* = u^n + dt (visc + g - grad p^n / rho)          (the lagged pressure acceleration)
+    PPE for phi = p^{n+1} - p^n, source -rho div u* / dt; p^{n+1} = 0 at the free surface
+    u^{n+1} = u* - dt grad phi / rho,   p^{n+1} = p^n + phi
+
+so that the viscous step (implicit for the mu(I) law) sees the pressure gradient it has to
+resist, and the splitting error of the standard form (a kick ``dt grad p^{n+1} / rho`` after
+the viscous solve, resisted only in the next step) is of the size of the increment.
+
 The PPE is evaluated at ``r^n`` rather than at the predicted ``r* = r^n + dt u^n`` [F 15]; the
 two differ by O(dt) within one first-order projection step, and ``r^n`` reuses the step's
 neighbour list (the choice of Cummins & Rudman 1999).
@@ -27,7 +38,7 @@ import numpy as np
 
 from fsi_sph.fluid import _kernels as K
 from fsi_sph.fluid import amg, free_surface
-from fsi_sph.fluid.ppe import PPEStats, PressureSolver, assemble
+from fsi_sph.fluid.ppe import PPEStats, PressureSolver, assemble, increment_rhs
 from fsi_sph.fluid.shifting import Shifting
 from fsi_sph.fluid.walls import Walls
 from fsi_sph.geometry import fill_shapes
@@ -68,6 +79,15 @@ def lattice_sigma(dx, h, kind):
     ix, iy = np.meshgrid(np.arange(-m, m + 1), np.arange(-m, m + 1), indexing="ij")
     r = np.hypot(ix.ravel(), iy.ravel()) * dx
     return float(sum(dx * dx * kernel_w(kind, ri, h) for ri in r))
+
+
+def lattice_neighbors(dx, h):
+    """Neighbours of a particle (self excluded) within the support ``2h`` of a full square
+    lattice of spacing ``dx`` (20 for ``h = 1.2 dx``)."""
+    m = int(math.ceil(SUPPORT * h / dx)) + 1
+    ix, iy = np.meshgrid(np.arange(-m, m + 1), np.arange(-m, m + 1), indexing="ij")
+    r = np.hypot(ix.ravel(), iy.ravel()) * dx
+    return int(np.sum((r > 0.0) & (r < SUPPORT * h)))
 
 
 class IncompressibleFluid:
@@ -124,6 +144,18 @@ class IncompressibleFluid:
         self.ns = sum(s.body.n for s in self.structures)
         self.nw = self.n_walls + self.ns
         n = self.nf + self.nw
+        self.incremental = cfg.projection == "incremental"
+        if self.incremental and self.ns:
+            raise ValueError("fluid.projection = \"incremental\" with coupled structures is "
+                             "not supported")
+        # the last pressure increment phi (incremental projection): the next solve's warm start
+        self.phi_all = np.zeros(n)
+        self.relax_all = np.zeros(n)  # and the density relaxation's pressure q (the same)
+        # p^n exists once a pressure has been solved for; before the first step of an
+        # incremental run it is the initial pressure (_initial_pressure)
+        self.p_known = False
+        self.drops = np.zeros(self.nf, dtype=bool)
+        self.incremental_step = False  # this step's projection is the incremental one
         # boundary velocity u_b and body force g - a_b of the boundary rows (Adami)
         self.v_b = np.zeros((self.nw, 2))
         self.g_b = np.tile(self.gravity, (self.nw, 1))
@@ -150,6 +182,7 @@ class IncompressibleFluid:
         self.set_structures(np.zeros((self.ns, 2)), np.zeros((self.ns, 2)))
         self.grad_scale, self.lap_scale, self.diag_ref = lattice_scales(dx, self.h, self.kernel)
         self.sigma0 = lattice_sigma(dx, self.h, self.kernel)
+        self.n_full = lattice_neighbors(dx, self.h)
         self.ppe = PressureSolver(cfg.ppe)
         self.last_stats = PPEStats()
         self.v_old = np.zeros((self.nf, 2))
@@ -225,7 +258,11 @@ class IncompressibleFluid:
     def extra_state(self):
         """State outside the fluid body's arrays that the next step needs (restart): the
         stacked fluid, wall and structure pressures, the warm start of the next solve."""
-        return {"p_all": self.p_all.copy()}
+        state = {"p_all": self.p_all.copy()}  # p^n of the incremental projection too
+        if self.incremental:
+            state["phi_all"] = self.phi_all.copy()
+            state["p_known"] = np.array(self.p_known)
+        return state
 
     def load_extra_state(self, state):
         p = state["p_all"]
@@ -235,6 +272,9 @@ class IncompressibleFluid:
             # images' rows are filled from their originals at the next neighbour update
             n = self.nf + self.n_walls
             self.p_all[:n] = p[:n]
+        if "phi_all" in state:  # (the increment's warm start is resized when needed)
+            self.phi_all = np.array(state["phi_all"])
+            self.p_known = bool(state["p_known"])
         if self.walls is not None:
             self.walls.body["p"][:] = self.p_all[self.nf:self.nf + self.n_walls]
 
@@ -337,6 +377,12 @@ class IncompressibleFluid:
 
     def predict(self, dt):
         """Intermediate velocity [F 16] (with the Smagorinsky viscosity [F 3] if enabled)."""
+        if self.incremental and not self.p_known:
+            self._initial_pressure(dt)
+        self.incremental_step = self.incremental
+        if self.incremental_step:
+            self._carried_pressure()
+            self._refresh_wall_pressure()
         if self.viscosity_law is not None:  # mu(I) or the implicit step (viscous.py)
             from fsi_sph.fluid.viscous import predict
 
@@ -353,6 +399,88 @@ class IncompressibleFluid:
         K.predict_velocity(self.x_all, self.v_all, self.vol_all, self.nu_all, self.ff_start,
                            self.ff_j, self.nf, self.h, self.kernel, self.eta2, g[0], g[1], dt,
                            self.v_star)
+        if self.incremental_step:  # [Goda 1979]: u* = u^n + dt (visc + g - grad p^n / rho)
+            self.v_star -= dt * self.lagged_pressure_acceleration()
+
+    def _initial_pressure(self, dt):
+        """``p^0`` of the incremental projection: the standard PPE's pressure for
+        ``u* = u^0 + dt g`` (no viscous term), the pressure that holds the body force against
+        the walls and the incompressibility of the initial state; hydrostatic in a fluid at
+        rest. (``p^0 = 0`` would give a first step whose increment builds up the whole
+        hydrostatic pressure against walls that enter with ``u*_w = u_w``.)"""
+        self.incremental_step = False
+        self.v_star[:] = self.body["v"] + dt * self.gravity
+        self.solve_pressure(dt)
+
+    def _carried_pressure(self):
+        """The ``p^n`` that the incremental projection carries into the step, and its drops:
+        fluid particles with fewer fluid neighbours than a quarter of a full support's
+        (:func:`lattice_neighbors`; a corner of a block has 7 of 20) carry ``p^n = 0`` and
+        are free-surface rows of the PPE (``self.drops``, :meth:`solve_pressure`). With an
+        interior row, a drop of 3 particles landing on the floor ahead of the collapse
+        front had a nearly singular row (its wall neighbours' pressures are extrapolated
+        from its own): its pressure, carried from step to step, grew 0.7 -> 12 -> 112 kPa
+        in three steps (hydrostatic at the bottom of the column: 1.6 kPa) and threw it off
+        at 20 m/s; not carried, the increment alone still reached 22 -> 111 kPa. Set in
+        ``body["p"]``: the viscosity law sees it too."""
+        b = self.body
+        n_fluid = np.zeros(self.nf, dtype=np.int64)
+        rows = np.repeat(np.arange(self.nf), np.diff(self.ff_start))
+        inner = self.ff_j < self.nf
+        if self.periodic is not None:  # the fluid images are fluid neighbours too
+            img, _ = self.periodic.fluid_images()
+            inner |= np.isin(self.ff_j, img)
+        np.add.at(n_fluid, rows[inner], 1)
+        self.drops = 4 * n_fluid < self.n_full
+        b["p"][self.drops] = 0.0
+
+    def _refresh_wall_pressure(self):
+        """Incremental projection: the fixed walls' ``p^n`` re-extrapolated from the fluid's
+        ``p^n`` at the current positions by the standard wall row (Adami; ``ppe_fill``),
+        ``p_w = <p_f>_w + rho g . (x_w - <x_f>_w)`` (Shepard averages ``<>_w`` over the fluid
+        neighbours), 0 without fluid neighbours. The last solve's wall pressures belong to
+        the last step's neighbours: a wall particle the front has just reached still has
+        ``p_w = 0``, which the lagged gradient would read as suction into the wall. Since the
+        rows are linear, ``p^{n+1}_w = p^n_w + phi_w`` still satisfies the standard row, and
+        the increment's wall rows are homogeneous (``increment_rhs`` gives 0 there)."""
+        nf, nwall = self.nf, self.n_walls
+        if not nwall:
+            return
+        self._sync()
+        xw = self.x_all[nf:nf + nwall]
+        mean = np.empty((nwall, 3))  # <p_f>, <x_f>, <y_f>
+        for k, field in enumerate((self.p_all, self.x_all[:, 0], self.x_all[:, 1])):
+            K.shepard_at(xw, self.x_all, np.ascontiguousarray(field), self.wf_start,
+                         self.wf_j, self.h, self.kernel, mean[:, k])
+        rbar = xw - mean[:, 1:]
+        pw = mean[:, 0] + self.rho * np.einsum("ij,ij->i", self.g_b[:nwall], rbar)
+        self.p_all[nf:nf + nwall] = np.where(np.isfinite(pw), pw, 0.0)
+        self._sync()  # (the periodic wall images)
+
+    def lagged_pressure_acceleration(self):
+        """``grad p^n / rho`` of the fluid rows for the incremental predictor (Goda 1979),
+        with the correction step's operator (:meth:`_pressure_gradient`) at the current
+        positions: the last solve's ``p`` (Taylor-corrected by the shift), walls included."""
+        self._sync()
+        K.correction_matrices(self.x_all, self.vol_all, self.ff_start, self.ff_j, self.h,
+                              self.kernel, self.L)
+        out = np.empty((self.nf, 2))
+        self._pressure_gradient(self.p_all, out)
+        out /= self.rho
+        return out
+
+    def _pressure_gradient(self, p, out):
+        """The correction step's gradient of the stacked field ``p`` at the fluid rows
+        (``self.L`` current): conservative [F 10] or corrected [F 7, F 13], over the fluid,
+        the walls and the periodic images (the structures are left to the coupling)."""
+        jmax = self.nf + self.nw - self.ns
+        if self.cfg.pressure_gradient == "conservative":
+            K.pressure_gradient(self.x_all, p, self.vol_all, self.ff_start, self.ff_j, self.nf,
+                                self.h, self.kernel, self.grad_scale, jmax, out)
+        else:
+            K.corrected_pressure_gradient(self.x_all, p, self.vol_all, self.L, self.ff_start,
+                                          self.ff_j, self.nf, self.h, self.kernel, jmax, out)
+        return out
 
     def velocity_divergence(self, v_fluid, v_wall=(0.0, 0.0), out=None):
         """``div u`` of the fluid rows for a fluid velocity field and a velocity of the
@@ -366,7 +494,9 @@ class IncompressibleFluid:
         return out
 
     def solve_pressure(self, dt):
-        """Assemble and solve the PPE [F 17, F 20-21]; fluid and wall pressures; PPEStats."""
+        """Assemble and solve the PPE [F 17, F 20-21]; fluid and wall pressures; PPEStats.
+        Incremental projection: the PPE for the increment ``phi`` [Goda 1979]
+        (:meth:`_solve_increment`)."""
         import time
 
         b = self.body
@@ -377,41 +507,42 @@ class IncompressibleFluid:
         # flux would be counted twice, once through div u* and once through the extrapolated
         # wall pressure, and a tank at rest would not stay at rest.
         # A moving boundary (structure particle) likewise enters with u_b + dt (g - a_b).
-        vb_star = self.v_b + dt * self.g_b
+        # Incremental projection [Goda 1979]: the walls' p^n already holds the g term
+        # (_refresh_wall_pressure), so the increment's wall rows carry none: the walls enter
+        # with their own velocity, which is also the no-slip mirror target of the viscous
+        # step (viscous.py), so both see the same u*_w.
+        vb_star = self.v_b.copy() if self.incremental_step else self.v_b + dt * self.g_b
         if self.periodic is not None:
             self.periodic.boundary_star(self, vb_star)
         self.velocity_divergence(self.v_star, vb_star, self.div)
         source = -self.rho / dt * self.div
-        relax = self.cfg.density_relaxation
-        if relax > 0.0:
-            # Density-error (compression-only) term of the stabilised ISPH source (Asai et
-            # al. 2012): lap p = rho div u* / dt + relax rho (sigma0 - sigma) / (sigma0 dt^2),
-            # applied where sigma > sigma0 in the interior, so that particles that have
-            # drifted together (a divergence-free projection does not see it) are pushed apart.
-            excess = (b["sigma"] - self.sigma0) / self.sigma0
-            if self.cfg.density_relaxation_sign == "compression":
-                excess = np.maximum(excess, 0.0)
-            else:  # "both": an expansion (sigma < sigma0) pulls back too, where the kernel
-                # support is full (a truncated support also has sigma < sigma0); under a
-                # sustained shear the shifting otherwise lets a layer slowly dilate (issue 6)
-                excess[(excess < 0.0) & (b["divr"] < DIVR_FULL)] = 0.0
-            excess[b["class"] != K.INTERIOR] = 0.0
-            source += relax * self.rho / (dt * dt) * excess
+        relax = self._relaxation_source(dt)
+        if relax is not None and not self.incremental_step:
+            source += relax
         K.correction_matrices(self.x_all, self.vol_all, self.ff_start, self.ff_j, self.h,
                               self.kernel, self.L)
         # rows whose kernel support is truncated (free surface, near it, or beside the end
         # of a wall) get the consistent (corrected) Laplacian and pressure gradient
         self.consistent = (b["class"] != K.INTERIOR) | (b["divr"] < DIVR_FULL)
-        A, rhs = assemble(self.x_all, self.vol_all, b["alpha"], source, self.L, self.consistent,
+        alpha = b["alpha"]
+        if self.incremental_step:  # drops: free-surface rows (_carried_pressure)
+            alpha = np.where(self.drops, 0.0, alpha)
+        A, rhs = assemble(self.x_all, self.vol_all, alpha, source, self.L, self.consistent,
                           self.ff_start, self.ff_j,
                           self.wf_start, self.wf_j, self.nf, self.nw, self.h, self.kernel,
                           self.eta2, self.lap_scale, self.diag_ref, self.rho, self.g_b,
                           self.implicit)
-        if self.periodic is not None:
-            A, rhs = self.periodic.constrain(A, rhs, self.diag_ref)
-        t1 = time.perf_counter()
-        p, stats = self.ppe.solve(A, rhs, self.p_all, self.nf)
-        stats.assemble_time = t1 - t0
+        if self.incremental_step:
+            p, stats = self._solve_increment(A, rhs, alpha, relax, t0)
+        else:
+            if self.periodic is not None:
+                A, rhs = self.periodic.constrain(A, rhs, self.diag_ref)
+            t1 = time.perf_counter()
+            p, stats = self.ppe.solve(A, rhs, self.p_all, self.nf)
+            stats.assemble_time = t1 - t0
+            if self.incremental:  # the initial pressure p^0 (_initial_pressure)
+                self.phi_all = np.zeros(len(p))
+        self.p_known = True
         self.p_all[:] = p
         b["p"][:] = p[:self.nf]
         if self.walls is not None:
@@ -420,23 +551,77 @@ class IncompressibleFluid:
         self.A, self.rhs = A, rhs
         return stats
 
+    def _relaxation_source(self, dt):
+        """The density-error term of the PPE source, or None without density relaxation.
+
+        Density-error (compression-only) term of the stabilised ISPH source (Asai et al.
+        2012): lap p = rho div u* / dt + relax rho (sigma0 - sigma) / (sigma0 dt^2), applied
+        where sigma > sigma0 in the interior, so that particles that have drifted together
+        (a divergence-free projection does not see it) are pushed apart."""
+        b = self.body
+        relax = self.cfg.density_relaxation
+        if relax <= 0.0:
+            return None
+        excess = (b["sigma"] - self.sigma0) / self.sigma0
+        if self.cfg.density_relaxation_sign == "compression":
+            excess = np.maximum(excess, 0.0)
+        else:  # "both": an expansion (sigma < sigma0) pulls back too, where the kernel
+            # support is full (a truncated support also has sigma < sigma0); under a
+            # sustained shear the shifting otherwise lets a layer slowly dilate (issue 6)
+            excess[(excess < 0.0) & (b["divr"] < DIVR_FULL)] = 0.0
+        excess[b["class"] != K.INTERIOR] = 0.0
+        return relax * self.rho / (dt * dt) * excess
+
+    def _solve_increment(self, A, rhs, alpha, relax, t0):
+        """The incremental projection's solves [Goda 1979] (the matrix ``A`` and the
+        divergence right-hand side ``rhs`` of :meth:`solve_pressure`): the increment ``phi``
+        (:func:`ppe.increment_rhs`: ``p^{n+1} = 0`` at the free surface, the wall rows'
+        condition on ``p^{n+1}``) and, with density relaxation, its pressure ``q`` (source
+        only, ``q = 0`` at the free surface and no wall term), which :meth:`correct` turns
+        into a displacement. ``p^{n+1} = p^n + phi`` keeps ``q`` out: a pressure that only
+        moves particles apart is not a pressure of the flow. Accumulated in ``p`` its
+        particle-scale part, which the gradient hardly sees and the next increments
+        therefore never take back, grew without bound (collapse at dt 2e-4 s: +-60 times
+        the hydrostatic pressure). Returns ``(p^{n+1}, PPEStats)``."""
+        import time
+
+        nf = self.nf
+        dirichlet = (alpha <= 0.0) | (np.diff(self.ff_start) == 0)
+        rhs_phi = increment_rhs(A, rhs, self.p_all, alpha, dirichlet, nf)
+        if self.periodic is not None:
+            A, rhs_phi = self.periodic.constrain(A, rhs_phi, self.diag_ref)
+        t1 = time.perf_counter()
+        n = len(rhs_phi)
+        if len(self.phi_all) != n:  # periodic images come and go: warm start resized
+            self.phi_all = np.zeros(n)
+        self.phi_all, stats = self.ppe.solve(A, rhs_phi, self.phi_all, nf)
+        self.relax_all = np.zeros(n)
+        if relax is not None:
+            rhs_q = np.zeros(n)
+            rhs_q[:nf] = np.where(dirichlet, 0.0, alpha * relax)
+            self.relax_all, stats_q = self.ppe.solve(A, rhs_q, np.zeros(n), nf)
+            for k in ("iterations", "setup_time", "solve_time", "vcycles", "matvecs"):
+                setattr(stats, k, getattr(stats, k) + getattr(stats_q, k))
+            stats.residual = max(stats.residual, stats_q.residual)
+            stats.rebuilt = stats.rebuilt or stats_q.rebuilt
+        stats.assemble_time = t1 - t0
+        return self.p_all + self.phi_all, stats
+
     def correct(self, dt, interface_force=None):
         """``u^{n+1} = u* - dt grad p / rho`` [F 18] with the conservative gradient [F 10];
         ``r^{n+1} = r^n + dt (u^n + u^{n+1}) / 2`` [F 19]; ``a = (u^{n+1} - u^n) / dt``.
+        Incremental projection: ``u^{n+1} = u* - dt grad phi / rho`` [Goda 1979], and the
+        density relaxation's pressure ``q`` (:meth:`_solve_increment`) moves the particles
+        by ``-dt^2 grad q / rho`` without entering their velocity (as a velocity, the next
+        increment would take it back and keep the pressure that does so: ``p`` drifted to
+        2-3 times hydrostatic in the collapse at dt 2e-4 s).
 
         With coupled structures the pressure gradient leaves out the structure particles and
         ``interface_force`` (N/m per fluid particle, the pair force [F 46-47] that the
         structures receive with the opposite sign) is applied instead."""
         b = self.body
-        jmax = self.nf + self.nw - self.ns  # fluid, walls (and periodic images)
-        if self.cfg.pressure_gradient == "conservative":
-            K.pressure_gradient(self.x_all, self.p_all, self.vol_all, self.ff_start, self.ff_j,
-                                self.nf, self.h, self.kernel, self.grad_scale, jmax,
+        self._pressure_gradient(self.phi_all if self.incremental_step else self.p_all,
                                 self.grad_p)
-        else:
-            K.corrected_pressure_gradient(self.x_all, self.p_all, self.vol_all, self.L,
-                                          self.ff_start, self.ff_j, self.nf, self.h, self.kernel,
-                                          jmax, self.grad_p)
         v = b["v"]
         np.multiply(self.grad_p, -dt / self.rho, out=v)
         v += self.v_star
@@ -445,6 +630,16 @@ class IncompressibleFluid:
         b["a"][:] = (v - self.v_old) / dt
         self._guard(dt, v)
         b["x"] += 0.5 * dt * (self.v_old + v)
+        if self.incremental_step and self.cfg.density_relaxation > 0.0:
+            self._relaxation_shift(dt)
+
+    def _relaxation_shift(self, dt):
+        """The incremental projection's density relaxation as a displacement
+        ``dr = -dt^2 grad q / rho`` (:meth:`correct`), none into a wall (the shift guard)."""
+        dr = self._pressure_gradient(self.relax_all, np.empty((self.nf, 2)))
+        dr *= -dt * dt / self.rho
+        self._guard_shift(dr)
+        self.body["x"] += dr
 
     def _guard_ranges(self):
         """The kinematic guard's source ranges and distances: the fixed walls (and their

@@ -70,6 +70,31 @@ def assemble(x, vol, alpha, source, L, consistent, f_start, f_j, w_start, w_j, n
     return A, b
 
 
+def increment_rhs(A, b, p_n, alpha, dirichlet, nf):
+    """Right-hand side of the PPE for the increment ``phi = p^{n+1} - p^n`` of the incremental
+    projection (Goda 1979; van Kan 1986) with the standard matrix ``A`` (:func:`assemble`,
+    whose right-hand side ``b`` was built from the source of the incremental ``u*``).
+
+    A fluid row is ``alpha_i (-lap p_i - source_i) + (1 - alpha_i) D_i p_i = 0`` (the [F 20-21]
+    blend of the Poisson row and the free-surface row ``p_i = 0``, ``D_i = A_ii``). For the
+    increment the Poisson part is ``-lap phi_i = source_i`` (the source of the incremental
+    ``u*``) and the surface part is ``p^{n+1}_i = 0``, i.e. ``phi_i = -p^n_i``::
+
+        (A phi)_i = alpha_i source_i - (1 - alpha_i) A_ii p^n_i
+
+    (``alpha_i`` taken as 0 on the pure Dirichlet rows, ``dirichlet``: free surface or no
+    neighbours, where ``b_i = 0``). A boundary row imposes on ``p^{n+1}`` the standard row's
+    condition (Adami's extrapolation), so its increment is the residual of ``p^n`` in it::
+
+        (A phi)_w = b_w - (A p^n)_w
+
+    which vanishes for a fluid at rest whose ``p^n`` is hydrostatic."""
+    out = b - A @ p_n
+    blend = np.where(dirichlet, 0.0, alpha)
+    out[:nf] = b[:nf] - (1.0 - blend) * A.diagonal()[:nf] * p_n[:nf]
+    return out
+
+
 class PressureSolver:
     """pyamg-preconditioned Krylov solver with the hierarchy-reuse policy of the module
     docstring. ``cfg`` is a ``PPESection``."""

@@ -36,6 +36,18 @@ projection then pushed that fluid up the wall: a mu(I) wedge at 15 deg, below it
 angle, crept with the material rising along the wall at 0.014 m/s, and the pressure beside
 the wall fell to ~0.6 of hydrostatic. docs/mui_notes_2026-11-30.md.)
 
+Incremental projection (``fluid.projection = "incremental"``, Goda 1979; isph.py): the
+lagged pressure acceleration joins the body force on the right-hand side of the solve,
+``u*_i - dt sum_j c_ij (u*_j - u*_i) = u_i + dt (g - grad p^n_i / rho)``, so the frictional
+viscosity resists the pressure push in the same step, and the walls are mirrored about their
+own velocity, ``ubar_w = u_w``: the wall's intermediate velocity is ``u_w + dt grad phi /
+rho`` (Kim & Moin 1985), the projection taking back only the increment ``phi``, which the
+walls' extrapolated pressure rows keep free of the hydrostatic part (a fixed wall's row for
+``phi`` has no g term; a fluid at rest has ``phi = 0`` and ``u* = 0`` beside the walls). The
+target ``u_w + dt grad p^n / rho`` of the standard form would be wrong here: the fluid's
+``u*`` no longer holds the hydrostatic ``dt g`` that it matched. The PPE's divergence sees
+the same ``u*_w = u_w`` (isph.py, ``solve_pressure``).
+
 The ``stress`` operator (``viscous_operator = "stress"``) adds the divergence of the
 transposed stress, so that the viscous term is ``div(2 eta D) / rho`` and not the Morris
 ``div(eta grad u) / rho``; for an incompressible flow they differ by ``div(eta (grad u)^T)
@@ -332,6 +344,9 @@ def predict(fluid, dt):
     nf = fluid.nf
     fluid._sync()
     law = fluid.viscosity_law
+    g = fluid.gravity
+    # body force of the solve: g, or g - grad p^n / rho with the incremental projection
+    force = g - fluid.lagged_pressure_acceleration() if fluid.incremental_step else g
     col_of = np.full(len(fluid.x_all), -1, dtype=np.int64)
     col_of[:nf] = np.arange(nf)
     if fluid.periodic is not None:
@@ -357,7 +372,6 @@ def predict(fluid, dt):
     if fluid.n_walls and law.kind != "newtonian":
         wall_viscosity(fluid)
     fluid.v_old[:] = b["v"]
-    g = fluid.gravity
     nu_op = morris_viscosity(fluid) if law.kind != "newtonian" else fluid.nu_all
     if fluid.cfg.viscous_step == "implicit":
         if mirror is not None:
@@ -372,12 +386,14 @@ def predict(fluid, dt):
             # pressure acceleration only along it, with or without a bound on the latter:
             # the a = 2 collapse blew up at 0.49 s when its front reached the end wall, the
             # a = 8 column threw a particle 3.7 m high over the end wall.)
-            mirror = (S, wall_target(S, fluid.v_b + dt * wall_pressure_acceleration(fluid,
-                                                                                    col_of)))
+            # Incremental projection: the walls' own velocity (module docstring).
+            v_target = (fluid.v_b if fluid.incremental_step else
+                        fluid.v_b + dt * wall_pressure_acceleration(fluid, col_of))
+            mirror = (S, wall_target(S, v_target))
             A, b_wall = assemble(fluid.x_all, fluid.vol_all, nu_op, fluid.v_all,
                                  fluid.ff_start, fluid.ff_j, nf, fluid.h, fluid.kernel,
                                  fluid.eta2, dt, col_of, mirror)
-            u, fluid.viscous_stats = _solve_step(fluid, A, fluid.v_old + dt * g + b_wall,
+            u, fluid.viscous_stats = _solve_step(fluid, A, fluid.v_old + dt * force + b_wall,
                                                  dt, col_of, mirror, stress)
             fluid.v_star[:] = u
         else:
@@ -386,14 +402,18 @@ def predict(fluid, dt):
                                  fluid.eta2, dt, col_of)
             # walls at their own velocity: the body force is added after the solve (a
             # split step), so that a fluid at rest gets exactly u* = dt g, which the
-            # projection removes against the walls' u*_w = dt g of the PPE
-            u, fluid.viscous_stats = _solve_step(fluid, A, fluid.v_old + b_wall, dt, col_of,
-                                                 None, stress)
-            fluid.v_star[:] = u + dt * g
+            # projection removes against the walls' u*_w = dt g of the PPE. Incremental:
+            # g - grad p^n / rho inside the solve (~0 at rest, walls' u*_w = u_w).
+            inside = dt * force if fluid.incremental_step else 0.0
+            u, fluid.viscous_stats = _solve_step(fluid, A, fluid.v_old + inside + b_wall, dt,
+                                                 col_of, None, stress)
+            fluid.v_star[:] = u if fluid.incremental_step else u + dt * g
     else:
         K.predict_velocity(fluid.x_all, fluid.v_all, fluid.vol_all, nu_op,
                            fluid.ff_start, fluid.ff_j, nf, fluid.h, fluid.kernel, fluid.eta2,
                            g[0], g[1], dt, fluid.v_star)
+        if fluid.incremental_step:  # [Goda 1979]: - dt grad p^n / rho
+            fluid.v_star += dt * (force - g)
         if stress:  # the transposed part of div(2 eta D), explicit like the rest
             fluid.v_star += dt * explicit_transpose_term(fluid, col_of)
     fluid.v_all[nf:] = fluid.v_b  # what the projection sees: the walls' own velocity
