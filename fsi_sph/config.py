@@ -428,6 +428,14 @@ class FluidSection(_Model):
         "1986): u* with the lagged pressure acceleration -grad p^n / rho, the PPE for the "
         "increment phi = p^{n+1} - p^n, u^{n+1} = u* - dt grad phi / rho (fsi_sph/fluid/isph.py; "
         "fixed walls and periodicity only, no coupled structures)")
+    incremental_damping: Annotated[float, Field(ge=0.0, le=1.0)] = Field(
+        0.0, description="incremental projection only: the fraction beta of the "
+        "non-incremental pressure (the standard PPE of u* + dt grad p^n / rho) mixed into "
+        "p^{n+1} every step, p^{n+1} = (1 - beta) (p^n + phi) + beta p_standard; damps the "
+        "particle-scale pressure noise that the carried pressure accumulates (the gradient "
+        "hardly sees it, so no increment takes it back); 0 = the pure incremental form. "
+        "Experimental: 0.1 made the sand collapse's run-out independent of dt but blew up "
+        "the a = 0.5 glass-bead collapse at 0.38 s (docs/incr_notes_2026-11-30.md)")
     periodic_x: Vec2 | None = Field(
         None, description="[x_min, x_max] (m): the fluid (and its walls) is periodic in x "
         "with period x_max - x_min (fsi_sph/fluid/periodic.py); absent: not periodic")

@@ -55,14 +55,17 @@ def test_default_projection_is_standard():
     assert cfg.fluid.projection == "standard"
 
 
-def test_granular_column_at_rest_keeps_hydrostatic_pressure():
+@pytest.mark.parametrize("damping", [0.0, 0.1])
+def test_granular_column_at_rest_keeps_hydrostatic_pressure(damping):
     """A mu(I) column beside a side wall, 300 steps (0.8 s): at rest to round-off and the
     pressure hydrostatic to 1 % on every particle below the surface rows. (Standard
     projection: vrms 8e-5 m/s. Incremental with p^0 = 0 instead of the initial pressure:
     0.54 of hydrostatic after the first step, still 0.97 after 300.)"""
-    sim = _run(_mu_i_text("{ origin = [0.0, 0.0], size = [0.016, 0.012] }",
-                          "{ origin = [0.0, 0.0], size = [0.016, 0.02] }", "incremental"),
-               steps=300)
+    text = _mu_i_text("{ origin = [0.0, 0.0], size = [0.016, 0.012] }",
+                      "{ origin = [0.0, 0.0], size = [0.016, 0.02] }", "incremental")
+    text = text.replace('projection = "incremental"',
+                        f'projection = "incremental"\nincremental_damping = {damping!r}')
+    sim = _run(text, steps=300)
     f = sim.fluid
     x, v, p = f.body["x"], f.body["v"], f.body["p"]
     assert sim.t > 0.8
