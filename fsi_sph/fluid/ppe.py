@@ -129,8 +129,9 @@ class PressureSolver:
                 presmoother=("gauss_seidel", {"sweep": "forward"}),
                 postsmoother=("gauss_seidel", {"sweep": "backward"}))
         else:
-            self.ml = pyamg.smoothed_aggregation_solver(A, symmetry="nonsymmetric",
-                                                        max_coarse=500, coarse_solver="splu")
+            self.ml = amg.seeded_build(pyamg.smoothed_aggregation_solver, A,
+                                       symmetry="nonsymmetric", max_coarse=500,
+                                       coarse_solver="splu")
         # the V-cycle applied by numba (fsi_sph/fluid/amg.py), finest level in two blocks
         self.vcycle = amg.VCycle(self.ml, amg.two_blocks(A, nf) if nf else None)
         self.age = 0

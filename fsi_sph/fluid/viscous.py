@@ -85,6 +85,7 @@ import scipy.sparse as sp
 from numba import njit, prange
 
 from fsi_sph.fluid import _kernels as K
+from fsi_sph.fluid import amg
 from fsi_sph.fluid.isph import DIVR_FULL
 from fsi_sph.sph.kernels import kernel_dw, kernel_w
 
@@ -315,8 +316,8 @@ def solve(A, rhs, x0, rtol):
     A.indptr = A.indptr.astype(np.int32)
     sym = abs(A - A.T).max() <= 1e-12 * abs(A).max()
     accel = "cg" if sym else "bicgstab"
-    ml = pyamg.smoothed_aggregation_solver(A, symmetry="symmetric" if sym else "nonsymmetric",
-                                           max_coarse=50)
+    ml = amg.seeded_build(pyamg.smoothed_aggregation_solver, A,
+                          symmetry="symmetric" if sym else "nonsymmetric", max_coarse=50)
     for k in range(rhs.shape[1]):
         b = np.ascontiguousarray(rhs[:, k])
         res = []
