@@ -456,6 +456,17 @@ def _project_chunk(V, k, w, h, lo, hi, part):
             part[k] += wt * wt
 
 
+@njit(cache=True)
+def _sum_parts(parts, k, out):
+    """``out[i] = sum_c parts[c, i]`` in a fixed order (deterministic for any thread
+    count)."""
+    for i in range(k + 1):
+        s = 0.0
+        for c in range(_CHUNKS):
+            s += parts[c, i]
+        out[i] = s
+
+
 @njit(cache=True, parallel=True)
 def _project_par(V, k, w, h, out):
     n = w.shape[0]
@@ -463,11 +474,7 @@ def _project_par(V, k, w, h, out):
     for c in prange(_CHUNKS):
         lo, hi = _chunk(n, c)
         _project_chunk(V, k, w, h, lo, hi, parts[c])
-    for i in range(k + 1):
-        s = 0.0
-        for c in range(_CHUNKS):
-            s += parts[c, i]
-        out[i] = s
+    _sum_parts(parts, k, out)
 
 
 @njit(cache=True)
@@ -477,11 +484,7 @@ def _project_ser(V, k, w, h, out):
     for c in range(_CHUNKS):
         lo, hi = _chunk(n, c)
         _project_chunk(V, k, w, h, lo, hi, parts[c])
-    for i in range(k + 1):
-        s = 0.0
-        for c in range(_CHUNKS):
-            s += parts[c, i]
-        out[i] = s
+    _sum_parts(parts, k, out)
 
 
 @njit(cache=True, parallel=True)

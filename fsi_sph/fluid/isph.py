@@ -51,6 +51,16 @@ FRONT_MIN_NEIGHBORS = 3  # fluid neighbours of a particle counted in the surge f
 DIVR_FULL = 1.95  # div r below this: the kernel support is taken as truncated (full: ~2)
 
 
+def lattice_offsets(dx, h):
+    """Offsets ``(x_j - x_i)`` (m) of the neighbours of a particle of a full, uniform square
+    lattice of spacing ``dx`` within the support ``2h`` (self excluded): 20 for h = 1.2 dx."""
+    m = int(math.ceil(SUPPORT * h / dx)) + 1
+    ix, iy = np.meshgrid(np.arange(-m, m + 1), np.arange(-m, m + 1), indexing="ij")
+    d = np.column_stack([ix.ravel(), iy.ravel()]) * dx
+    r = np.hypot(d[:, 0], d[:, 1])
+    return d[(r > 0) & (r < SUPPORT * h)]
+
+
 def lattice_scales(dx, h, kind):
     """Lattice constants of a full, uniform square lattice of spacing ``dx``.
 
@@ -59,12 +69,8 @@ def lattice_scales(dx, h, kind):
     coefficients ``c_ij``; and the diagonal ``sum_j c_ij`` of an interior PPE row (with
     ``lap_scale`` applied).
     """
-    m = int(math.ceil(SUPPORT * h / dx)) + 1
-    ix, iy = np.meshgrid(np.arange(-m, m + 1), np.arange(-m, m + 1), indexing="ij")
-    d = np.column_stack([ix.ravel(), iy.ravel()]) * dx
+    d = lattice_offsets(dx, h)
     r = np.hypot(d[:, 0], d[:, 1])
-    keep = (r > 0) & (r < SUPPORT * h)
-    d, r = d[keep], r[keep]
     dw = np.array([kernel_dw(kind, ri, h) for ri in r])
     vol = dx * dx
     mxx = -np.sum(vol * d[:, 0] ** 2 * dw / r)
@@ -79,15 +85,6 @@ def lattice_sigma(dx, h, kind):
     ix, iy = np.meshgrid(np.arange(-m, m + 1), np.arange(-m, m + 1), indexing="ij")
     r = np.hypot(ix.ravel(), iy.ravel()) * dx
     return float(sum(dx * dx * kernel_w(kind, ri, h) for ri in r))
-
-
-def lattice_neighbors(dx, h):
-    """Neighbours of a particle (self excluded) within the support ``2h`` of a full square
-    lattice of spacing ``dx`` (20 for ``h = 1.2 dx``)."""
-    m = int(math.ceil(SUPPORT * h / dx)) + 1
-    ix, iy = np.meshgrid(np.arange(-m, m + 1), np.arange(-m, m + 1), indexing="ij")
-    r = np.hypot(ix.ravel(), iy.ravel()) * dx
-    return int(np.sum((r > 0.0) & (r < SUPPORT * h)))
 
 
 class IncompressibleFluid:
@@ -183,7 +180,7 @@ class IncompressibleFluid:
         self.set_structures(np.zeros((self.ns, 2)), np.zeros((self.ns, 2)))
         self.grad_scale, self.lap_scale, self.diag_ref = lattice_scales(dx, self.h, self.kernel)
         self.sigma0 = lattice_sigma(dx, self.h, self.kernel)
-        self.n_full = lattice_neighbors(dx, self.h)
+        self.n_full = len(lattice_offsets(dx, self.h))
         self.ppe = PressureSolver(cfg.ppe)
         self.last_stats = PPEStats()
         self.v_old = np.zeros((self.nf, 2))
@@ -192,6 +189,7 @@ class IncompressibleFluid:
         self.grad_p = np.zeros((self.nf, 2))
         self.grad_v = np.zeros((self.nf, 2, 2))
         self.L = np.zeros((self.nf, 2, 2))
+        self._L_key, self._L_x = None, np.empty((0, 2))  # what self.L was computed for
         # viscosity law, implicit viscous step, periodicity (rheology.py, viscous.py,
         # periodic.py); the plain explicit Newtonian fluid takes none of these paths
         self.viscosity_law = None
@@ -340,13 +338,28 @@ class IncompressibleFluid:
                             self.h, self.kernel, b["divr"], b["grad_c"], b["sigma"], b["alpha"],
                             b["class"], b["normal"])
 
+    def _correction_matrices(self):
+        """``self.L`` [F 13-14] at the current stacked positions, computed once per set of
+        positions and neighbour lists: the mu(I) predictor's gradients, the incremental
+        projection's lagged pressure gradient and the PPE all need it at the same positions
+        within a step."""
+        key = (id(self.ff_start), id(self.ff_j))
+        if (key == self._L_key and self._L_x.shape == self.x_all.shape
+                and np.array_equal(self._L_x, self.x_all)):
+            return
+        K.correction_matrices(self.x_all, self.vol_all, self.ff_start, self.ff_j, self.h,
+                              self.kernel, self.L)
+        if self._L_x.shape != self.x_all.shape:
+            self._L_x = np.empty_like(self.x_all)
+        self._L_x[:] = self.x_all
+        self._L_key = key
+
     def _gradients(self, free_slip=False):
         """Corrected gradients of p and u at the current positions [F 7, F 13-14];
         ``free_slip``: boundary particles carry no velocity difference (zero normal
         derivative of u at walls and structures)."""
         self._sync()
-        K.correction_matrices(self.x_all, self.vol_all, self.ff_start, self.ff_j, self.h,
-                              self.kernel, self.L)
+        self._correction_matrices()
         K.gradients(self.x_all, self.p_all, self.v_all, self.vol_all, self.L, self.ff_start,
                     self.ff_j, self.nf, self.h, self.kernel, self.grad_p, self.grad_v,
                     self.nf if free_slip else -1)
@@ -416,7 +429,7 @@ class IncompressibleFluid:
     def _carried_pressure(self):
         """The ``p^n`` that the incremental projection carries into the step, and its drops:
         fluid particles with fewer fluid neighbours than a quarter of a full support's
-        (:func:`lattice_neighbors`; a corner of a block has 7 of 20) carry ``p^n = 0`` and
+        (:func:`lattice_offsets`; a corner of a block has 7 of 20) carry ``p^n = 0`` and
         are free-surface rows of the PPE (``self.drops``, :meth:`solve_pressure`). With an
         interior row, a drop of 3 particles landing on the floor ahead of the collapse
         front had a nearly singular row (its wall neighbours' pressures are extrapolated
@@ -425,13 +438,12 @@ class IncompressibleFluid:
         at 20 m/s; not carried, the increment alone still reached 22 -> 111 kPa. Set in
         ``body["p"]``: the viscosity law sees it too."""
         b = self.body
-        n_fluid = np.zeros(self.nf, dtype=np.int64)
         rows = np.repeat(np.arange(self.nf), np.diff(self.ff_start))
         inner = self.ff_j < self.nf
         if self.periodic is not None:  # the fluid images are fluid neighbours too
             img, _ = self.periodic.fluid_images()
             inner |= np.isin(self.ff_j, img)
-        np.add.at(n_fluid, rows[inner], 1)
+        n_fluid = np.bincount(rows[inner], minlength=self.nf)
         self.drops = 4 * n_fluid < self.n_full
         b["p"][self.drops] = 0.0
 
@@ -463,8 +475,7 @@ class IncompressibleFluid:
         with the correction step's operator (:meth:`_pressure_gradient`) at the current
         positions: the last solve's ``p`` (Taylor-corrected by the shift), walls included."""
         self._sync()
-        K.correction_matrices(self.x_all, self.vol_all, self.ff_start, self.ff_j, self.h,
-                              self.kernel, self.L)
+        self._correction_matrices()
         out = np.empty((self.nf, 2))
         self._pressure_gradient(self.p_all, out)
         out /= self.rho
@@ -521,8 +532,7 @@ class IncompressibleFluid:
         relax = self._relaxation_source(dt)
         if relax is not None and not self.incremental_step:
             source += relax
-        K.correction_matrices(self.x_all, self.vol_all, self.ff_start, self.ff_j, self.h,
-                              self.kernel, self.L)
+        self._correction_matrices()
         # rows whose kernel support is truncated (free surface, near it, or beside the end
         # of a wall) get the consistent (corrected) Laplacian and pressure gradient
         self.consistent = (b["class"] != K.INTERIOR) | (b["divr"] < DIVR_FULL)

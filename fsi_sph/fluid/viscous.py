@@ -486,16 +486,8 @@ def wall_pressure_acceleration(fluid, col_of):
     conservative [F 10], walls' pressures included; periodic images carry their
     original's); 0 where a boundary particle has no fluid neighbour."""
     nf = fluid.nf
-    jmax = nf + fluid.nw - fluid.ns
     gp = np.zeros((len(fluid.x_all), 2))
-    if fluid.cfg.pressure_gradient == "conservative":
-        K.pressure_gradient(fluid.x_all, fluid.p_all, fluid.vol_all, fluid.ff_start,
-                            fluid.ff_j, nf, fluid.h, fluid.kernel, fluid.grad_scale, jmax,
-                            gp[:nf])
-    else:
-        K.corrected_pressure_gradient(fluid.x_all, fluid.p_all, fluid.vol_all, fluid.L,
-                                      fluid.ff_start, fluid.ff_j, nf, fluid.h, fluid.kernel,
-                                      jmax, gp[:nf])
+    fluid._pressure_gradient(fluid.p_all, gp[:nf])
     gp[:nf] /= fluid.rho
     fold = col_of >= 0
     gp[fold] = gp[:nf][col_of[fold]]
