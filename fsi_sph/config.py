@@ -384,6 +384,20 @@ class SmagorinskySection(_Model):
     cs: Annotated[float, Field(gt=0.0, le=0.5)] = Field(0.12, description="Smagorinsky constant")
 
 
+class CollisionSection(_Model):
+    """Particle collision model: fluid particles closer than ``distance`` dx that approach
+    each other lose the approach velocity as in an inelastic collision (momentum
+    conserved). For granular materials, whose free-surface particles (p = 0) meet no
+    pressure: without it the thin tip of a collapsing column packed 4 particles within
+    0.3 dx, and the PPE row of such a clump threw them off at 10-30 m/s."""
+
+    distance: Annotated[float, Field(gt=0.0, le=1.0)] = Field(
+        0.5, description="contact distance in particle spacings")
+    restitution: Annotated[float, Field(ge=0.0, le=1.0)] = Field(
+        0.0, description="restitution coefficient e: the approach velocity becomes -e times "
+        "itself (0: the pair stops approaching)")
+
+
 class FluidSection(_Model):
     """Incompressible SPH fluid (projection method) [F 15-21]."""
 
@@ -436,6 +450,22 @@ class FluidSection(_Model):
         "hardly sees it, so no increment takes it back); 0 = the pure incremental form. "
         "Experimental: 0.1 made the sand collapse's run-out independent of dt but blew up "
         "the a = 0.5 glass-bead collapse at 0.38 s (docs/incr_notes_2026-11-30.md)")
+    collision: CollisionSection | None = Field(
+        None, description="absent: no particle collision model")
+    wall_suction: bool = Field(
+        True, description="false: a fixed wall cannot pull a fluid particle: in the "
+        "correction's pressure gradient a wall particle's pressure is at least the fluid "
+        "particle's own, carried hydrostatically to it (at a granular front Adami's wall "
+        "pressure fell below that of a particle pressed against the floor, which was then "
+        "pushed into it and its pressure grew 2.5-fold per step; fsi_sph/fluid/_kernels.py "
+        "wall_floor)")
+    tension_cutoff: bool = Field(
+        False, description="cohesionless material: negative pressures are set to 0 after "
+        "every pressure solve, and the correction uses the cut-off field, so a region in "
+        "tension dilates (grains separate) instead of pulling its neighbours (a granular toe "
+        "particle flagged interior for one step drew -4.4 kPa and was thrown off at 2.7 m/s "
+        "without it; fsi_sph/fluid/isph.py). Where it acts the mu(I) law sees p = 0: no "
+        "friction")
     periodic_x: Vec2 | None = Field(
         None, description="[x_min, x_max] (m): the fluid (and its walls) is periodic in x "
         "with period x_max - x_min (fsi_sph/fluid/periodic.py); absent: not periodic")

@@ -482,17 +482,29 @@ class IncompressibleFluid:
         self._acc_lag = out
         return out
 
-    def _pressure_gradient(self, p, out):
+    def _pressure_gradient(self, p, out, floor="pressure"):
         """The correction step's gradient of the stacked field ``p`` at the fluid rows
         (``self.L`` current): conservative [F 10] or corrected [F 7, F 13], over the fluid,
-        the walls and the periodic images (the structures are left to the coupling)."""
+        the walls and the periodic images (the structures are left to the coupling).
+        With ``fluid.wall_suction = false`` the fixed walls cannot pull
+        (:func:`_kernels.wall_floor`): ``floor`` = "pressure" (a pressure: hydrostatic
+        carry), "increment" (an increment of it: none) or None (no floor: the density
+        relaxation's displacement pressure)."""
         jmax = self.nf + self.nw - self.ns
+        lo = hi = 0
+        rg = (0.0, 0.0)
+        if not self.cfg.wall_suction and floor is not None:
+            lo, hi = self.nf, self.nf + self.n_walls
+            if floor == "pressure":
+                rg = (self.rho * self.gravity[0], self.rho * self.gravity[1])
         if self.cfg.pressure_gradient == "conservative":
             K.pressure_gradient(self.x_all, p, self.vol_all, self.ff_start, self.ff_j, self.nf,
-                                self.h, self.kernel, self.grad_scale, jmax, out)
+                                self.h, self.kernel, self.grad_scale, jmax, lo, hi, rg[0], rg[1],
+                                out)
         else:
             K.corrected_pressure_gradient(self.x_all, p, self.vol_all, self.L, self.ff_start,
-                                          self.ff_j, self.nf, self.h, self.kernel, jmax, out)
+                                          self.ff_j, self.nf, self.h, self.kernel, jmax, lo, hi,
+                                          rg[0], rg[1], out)
         return out
 
     def velocity_divergence(self, v_fluid, v_wall=(0.0, 0.0), out=None):
@@ -554,6 +566,8 @@ class IncompressibleFluid:
             stats.assemble_time = t1 - t0
             if self.incremental:  # the initial pressure p^0 (_initial_pressure)
                 self.phi_all = np.zeros(len(p))
+        if self.cfg.tension_cutoff:
+            p = self._cut_tension(p)
         self.p_known = True
         self.p_all[:] = p
         b["p"][:] = p[:self.nf]
@@ -562,6 +576,20 @@ class IncompressibleFluid:
         self.last_stats = stats
         self.A, self.rhs = A, rhs
         return stats
+
+    def _cut_tension(self, p):
+        """``max(p, 0)`` for a cohesionless material (``fluid.tension_cutoff``): the fluid,
+        the fixed walls (whose pressure is extrapolated from the fluid's) and the periodic
+        images; with the incremental projection the increment that :meth:`correct` applies
+        becomes ``max(p^n + phi, 0) - p^n``. Where the cut-off acts, ``u^{n+1}`` keeps the
+        divergence of ``u*``: the material opens instead of pulling (no tension between
+        grains)."""
+        rows = np.ones(len(p), dtype=bool)  # [fluid | walls | structures or images]
+        rows[self.nf + self.n_walls:self.nf + self.nw] = False  # structures: their own stress
+        cut = np.where(rows, np.maximum(p, 0.0), p)
+        if self.incremental_step:
+            self.phi_all += cut - p
+        return cut
 
     def _relaxation_source(self, dt):
         """The density-error term of the PPE source, or None without density relaxation.
@@ -660,23 +688,37 @@ class IncompressibleFluid:
         ``interface_force`` (N/m per fluid particle, the pair force [F 46-47] that the
         structures receive with the opposite sign) is applied instead."""
         b = self.body
-        self._pressure_gradient(self.phi_all if self.incremental_step else self.p_all,
-                                self.grad_p)
+        if self.incremental_step:
+            self._pressure_gradient(self.phi_all, self.grad_p, floor="increment")
+        else:
+            self._pressure_gradient(self.p_all, self.grad_p)
         v = b["v"]
         np.multiply(self.grad_p, -dt / self.rho, out=v)
         v += self.v_star
         if interface_force is not None:
             v += (dt / b["m"])[:, None] * interface_force
+        if self.cfg.collision is not None:
+            self._collide(v)
         b["a"][:] = (v - self.v_old) / dt
         self._guard(dt, v)
         b["x"] += 0.5 * dt * (self.v_old + v)
         if self.incremental_step and self.cfg.density_relaxation > 0.0:
             self._relaxation_shift(dt)
 
+    def _collide(self, v):
+        """The particle collision model (``fluid.collision``, :func:`_kernels.collision_dv`)
+        on the corrected velocities ``v``: approaching pairs of fluid particles closer than
+        the contact distance lose their approach."""
+        c = self.cfg.collision
+        dv = np.empty((self.nf, 2))
+        K.collision_dv(self.x_all, v, self.body["m"], self.ff_start, self.ff_j, self.nf,
+                       c.distance * self.dx, c.restitution, dv)
+        v += dv
+
     def _relaxation_shift(self, dt):
         """The incremental projection's density relaxation as a displacement
         ``dr = -dt^2 grad q / rho`` (:meth:`correct`), none into a wall (the shift guard)."""
-        dr = self._pressure_gradient(self.relax_all, np.empty((self.nf, 2)))
+        dr = self._pressure_gradient(self.relax_all, np.empty((self.nf, 2)), floor=None)
         dr *= -dt * dt / self.rho
         self._guard_shift(dr)
         self.body["x"] += dr
@@ -806,8 +848,8 @@ def warm_up(kind):
     ws = np.zeros(1, dtype=np.int64)
     assemble(x, vol, alpha, div, L, cls == 0, start, j, ws, np.zeros(0, dtype=np.int64), n, 0, h,
              kind, 0.01, 1.0, 1.0, 1.0, np.zeros((0, 2)))
-    K.pressure_gradient(x, p, vol, start, j, n, h, kind, 1.0, n, gp)
-    K.corrected_pressure_gradient(x, p, vol, L, start, j, n, h, kind, n, gp)
+    K.pressure_gradient(x, p, vol, start, j, n, h, kind, 1.0, n, 0, 0, 0.0, 0.0, gp)
+    K.corrected_pressure_gradient(x, p, vol, L, start, j, n, h, kind, n, 0, 0, 0.0, 0.0, gp)
     dr = np.zeros((n, 2))
     for model in (0, 1, 2):
         K.shift_vectors(x, v, vol, start, j, n, h, kind, model, 1.0, 0.0, 0.1, cls, nrm, dr)

@@ -45,12 +45,12 @@ def test_velocity_divergence_and_gradients_match_oracle(perturbed):
     K.velocity_divergence(x, v, vol, s, j, nf, H, KIND, 1.01, out)
     assert_allclose(out, ref.velocity_divergence(x, v, vol, H, nf, 1.01), rtol=1e-12, atol=1e-13)
     g = np.zeros((nf, 2))
-    K.pressure_gradient(x, p, vol, s, j, nf, H, KIND, 1.01, len(x), g)
+    K.pressure_gradient(x, p, vol, s, j, nf, H, KIND, 1.01, len(x), 0, 0, 0.0, 0.0, g)
     assert_allclose(g, ref.conservative_gradient(x, p, vol, H, nf, 1.01), rtol=1e-12, atol=1e-13)
     L = np.zeros((nf, 2, 2))
     K.correction_matrices(x, vol, s, j, H, KIND, L)
     assert_allclose(L, ref.correction(x, vol, H, nf), rtol=1e-12, atol=1e-13)
-    K.corrected_pressure_gradient(x, p, vol, L, s, j, nf, H, KIND, len(x), g)
+    K.corrected_pressure_gradient(x, p, vol, L, s, j, nf, H, KIND, len(x), 0, 0, 0.0, 0.0, g)
     assert_allclose(g, ref.corrected_gradient(x, p, vol, H, nf), rtol=1e-12, atol=1e-13)
     nu = rng.uniform(1e-3, 2e-3, n)
     vs = np.zeros((nf, 2))
@@ -335,3 +335,68 @@ def test_smagorinsky_viscosity_of_simple_shear():
     nu = np.zeros(1)
     K.smagorinsky(gv, 0.01, 1e-6, nu)
     assert nu[0] == pytest.approx(1e-6 + 0.02)
+
+
+def _floored(x, p, i, lo, hi, rg):
+    """p as fluid row i sees it with the wall floor: walls lo..hi at least p_i carried
+    hydrostatically (rho g . (x_w - x_i))."""
+    q = p.copy()
+    q[lo:hi] = np.maximum(p[lo:hi], p[i] + (x[lo:hi] - x[i]) @ rg)
+    return q
+
+
+@pytest.mark.parametrize("rg", [(0.0, 0.0), (0.0, -9810.0)])
+def test_wall_floor_matches_oracle(perturbed, rg):
+    """The walls that cannot pull (tension cut-off): each fluid row's gradient equals the
+    oracle's with the walls' pressures floored at the row's own (hydrostatically carried)."""
+    rng = np.random.default_rng(2)
+    x = perturbed
+    n, nf = len(x), 90  # rows nf.. are walls
+    vol = rng.uniform(0.8, 1.2, n)
+    p = rng.normal(size=n) * 1e3
+    s, j = nbrs(x, nf)
+    L = np.zeros((nf, 2, 2))
+    K.correction_matrices(x, vol, s, j, H, KIND, L)
+    rgv = np.array(rg)
+    for corrected in (True, False):
+        g = np.zeros((nf, 2))
+        if corrected:
+            K.corrected_pressure_gradient(x, p, vol, L, s, j, nf, H, KIND, n, nf, n, *rg, g)
+        else:
+            K.pressure_gradient(x, p, vol, s, j, nf, H, KIND, 1.01, n, nf, n, *rg, g)
+        changed = 0
+        for i in range(nf):
+            q = _floored(x, p, i, nf, n, rgv)
+            changed += not np.array_equal(q, p)
+            want = (ref.corrected_gradient(x, q, vol, H, nf) if corrected
+                    else ref.conservative_gradient(x, q, vol, H, nf, 1.01))[i]
+            assert_allclose(g[i], want, rtol=1e-10, atol=1e-9)
+        assert changed > 10
+
+
+def test_wall_floor_pushes_a_particle_off_the_wall_and_keeps_hydrostatics():
+    """A fluid particle at dx/2 above a floor of wall particles, its pressure far above the
+    walls' (the tip of a granular front): without the floor its gradient pushes it into
+    the floor, with it away. A hydrostatic field is left exactly as it is."""
+    wall = lattice(8, 3, 1.0, origin=(-4.0, -3.0))  # rows at y = -0.5, -1.5, -2.5
+    fluid = lattice(8, 2, 1.0, origin=(-4.0, 0.0))  # rows at y = 0.5, 1.5
+    x = np.vstack([fluid, wall])
+    nf, n = len(fluid), len(x)
+    vol = np.ones(n)
+    s, j = nbrs(x, nf)
+    L = np.zeros((nf, 2, 2))
+    K.correction_matrices(x, vol, s, j, H, KIND, L)
+    i = int(np.argmin(np.abs(fluid[:, 0]) + np.abs(fluid[:, 1] - 0.5)))
+    p = np.zeros(n)
+    p[i] = 100.0
+    g = np.zeros((nf, 2))
+    K.corrected_pressure_gradient(x, p, vol, L, s, j, nf, H, KIND, n, 0, 0, 0.0, 0.0, g)
+    assert g[i, 1] > 0.0  # -grad p points down: into the floor
+    K.corrected_pressure_gradient(x, p, vol, L, s, j, nf, H, KIND, n, nf, n, 0.0, 0.0, g)
+    assert g[i, 1] < 0.0
+    rg = np.array([0.0, -9.81])
+    ph = 50.0 + x @ rg  # hydrostatic p0 + rho g . x (rho = 1), surface above
+    g0, g1 = np.zeros((nf, 2)), np.zeros((nf, 2))
+    K.corrected_pressure_gradient(x, ph, vol, L, s, j, nf, H, KIND, n, 0, 0, 0.0, 0.0, g0)
+    K.corrected_pressure_gradient(x, ph, vol, L, s, j, nf, H, KIND, n, nf, n, *rg, g1)
+    assert_allclose(g1, g0, rtol=1e-12, atol=1e-9)
