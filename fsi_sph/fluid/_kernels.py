@@ -237,18 +237,22 @@ def velocity_divergence(x, v, vol, nbr_start, nbr_j, nf, h, kind, grad_scale, ou
 
 
 @njit(cache=True, parallel=True)
-def collision_dv(x, v, m, nbr_start, nbr_j, nf, r_c, restitution, out_dv):
+def collision_dv(x, v, m, nbr_start, nbr_j, nf, fluid_of, r_c, restitution, out_dv):
     """Velocity change of the particle collision model (``fluid.collision``): every pair of
     fluid particles closer than ``r_c`` that approach each other, ``w = (u_i - u_j) . n_ij
     < 0`` with ``n_ij = (x_i - x_j) / r``, loses the approach as in a collision with
     restitution ``e``: ``du_i = -(1 + e) m_j / (m_i + m_j) w n_ij`` (equal and opposite
-    momentum changes, so momentum is conserved; all pairs from the same ``v``)."""
+    momentum changes, so momentum is conserved; all pairs from the same ``v``).
+    ``fluid_of[j]``: the fluid particle that row ``j`` of the stacked positions is (itself,
+    or the original of a periodic image), -1 for boundary rows; ``v`` and ``m`` per fluid
+    particle."""
     for i in prange(nf):
         d0 = 0.0
         d1 = 0.0
         for k in range(nbr_start[i], nbr_start[i + 1]):
             j = nbr_j[k]
-            if j >= nf:
+            jf = fluid_of[j]
+            if jf < 0 or jf == i:
                 continue
             n0 = x[i, 0] - x[j, 0]
             n1 = x[i, 1] - x[j, 1]
@@ -257,9 +261,9 @@ def collision_dv(x, v, m, nbr_start, nbr_j, nf, r_c, restitution, out_dv):
                 continue
             n0 /= r
             n1 /= r
-            w = (v[i, 0] - v[j, 0]) * n0 + (v[i, 1] - v[j, 1]) * n1
+            w = (v[i, 0] - v[jf, 0]) * n0 + (v[i, 1] - v[jf, 1]) * n1
             if w < 0.0:
-                c = -(1.0 + restitution) * m[j] / (m[i] + m[j]) * w
+                c = -(1.0 + restitution) * m[jf] / (m[i] + m[jf]) * w
                 d0 += c * n0
                 d1 += c * n1
         out_dv[i, 0] = d0
@@ -426,13 +430,13 @@ def wall_floor(p_w, p_i, r0, r1, rg0, rg1):
 
 
 @njit(cache=True, parallel=True)
-def pressure_gradient(x, p, vol, nbr_start, nbr_j, nf, h, kind, grad_scale, jmax, floor_lo,
-                      floor_hi, rg0, rg1, out_grad):
+def pressure_gradient(x, p, vol, nbr_start, nbr_j, nf, h, kind, grad_scale, jmax, floored,
+                      rg0, rg1, out_grad):
     """Conservative pressure gradient [F 8, F 10]
     ``grad p_i = grad_scale sum_j V_j (p_i + p_j) grad W_ij``: the pair force
     ``-V_i V_j (p_i + p_j) grad W_ij`` is antisymmetric, so momentum is conserved.
     Sources ``j >= jmax`` (structure particles) are left to the coupling's pair force;
-    sources ``floor_lo <= j < floor_hi`` as in :func:`corrected_pressure_gradient`."""
+    sources with ``floored[j]`` as in :func:`corrected_pressure_gradient`."""
     for i in prange(nf):
         s0 = 0.0
         s1 = 0.0
@@ -446,7 +450,7 @@ def pressure_gradient(x, p, vol, nbr_start, nbr_j, nf, h, kind, grad_scale, jmax
             if r < 1e-12 * h:
                 continue
             pj = p[j]
-            if floor_lo <= j < floor_hi:
+            if floored[j]:
                 pj = wall_floor(pj, p[i], -d0, -d1, rg0, rg1)
             f = vol[j] * (p[i] + pj) * kernel_dw(kind, r, h) / r
             s0 += f * d0
@@ -456,14 +460,15 @@ def pressure_gradient(x, p, vol, nbr_start, nbr_j, nf, h, kind, grad_scale, jmax
 
 
 @njit(cache=True, parallel=True)
-def corrected_pressure_gradient(x, p, vol, L, nbr_start, nbr_j, nf, h, kind, jmax, floor_lo,
-                                floor_hi, rg0, rg1, out_grad):
+def corrected_pressure_gradient(x, p, vol, L, nbr_start, nbr_j, nf, h, kind, jmax, floored,
+                                rg0, rg1, out_grad):
     """Consistent, corrected pressure gradient [F 7, F 13-14]
     ``grad p_i = sum_j V_j (p_j - p_i) L_i grad W_ij``: exact for linear ``p`` also where the
     support is truncated (free surface), but the pair forces are not antisymmetric.
     Sources ``j >= jmax`` (structure particles) are left to the coupling's pair force.
-    Sources ``floor_lo <= j < floor_hi`` (walls that cannot pull, :func:`wall_floor`) enter
-    with ``max(p_j, p_i + rho g . (x_j - x_i))`` (``rg = rho g``)."""
+    Sources with ``floored[j]`` (walls that cannot pull, :func:`wall_floor`) enter with
+    ``max(p_j, p_i + rho g . (x_j - x_i))`` (``rg = rho g``); ``floored`` has one entry per
+    stacked row (all False: no floor)."""
     for i in prange(nf):
         s0 = 0.0
         s1 = 0.0
@@ -477,7 +482,7 @@ def corrected_pressure_gradient(x, p, vol, L, nbr_start, nbr_j, nf, h, kind, jma
             if r < 1e-12 * h:
                 continue
             pj = p[j]
-            if floor_lo <= j < floor_hi:
+            if floored[j]:
                 pj = wall_floor(pj, p[i], -d0, -d1, rg0, rg1)
             f = vol[j] * (pj - p[i]) * kernel_dw(kind, r, h) / r
             s0 += f * d0

@@ -491,21 +491,37 @@ class IncompressibleFluid:
         carry), "increment" (an increment of it: none) or None (no floor: the density
         relaxation's displacement pressure)."""
         jmax = self.nf + self.nw - self.ns
-        lo = hi = 0
         rg = (0.0, 0.0)
         if not self.cfg.wall_suction and floor is not None:
-            lo, hi = self.nf, self.nf + self.n_walls
+            floored = self._row_roles()[1]
             if floor == "pressure":
                 rg = (self.rho * self.gravity[0], self.rho * self.gravity[1])
+        else:
+            floored = np.zeros(len(p), dtype=np.bool_)
         if self.cfg.pressure_gradient == "conservative":
             K.pressure_gradient(self.x_all, p, self.vol_all, self.ff_start, self.ff_j, self.nf,
-                                self.h, self.kernel, self.grad_scale, jmax, lo, hi, rg[0], rg[1],
-                                out)
+                                self.h, self.kernel, self.grad_scale, jmax, floored, rg[0],
+                                rg[1], out)
         else:
             K.corrected_pressure_gradient(self.x_all, p, self.vol_all, self.L, self.ff_start,
-                                          self.ff_j, self.nf, self.h, self.kernel, jmax, lo, hi,
+                                          self.ff_j, self.nf, self.h, self.kernel, jmax, floored,
                                           rg[0], rg[1], out)
         return out
+
+    def _row_roles(self):
+        """Per stacked row ``[fluid | walls | structures | periodic images]``: the fluid
+        particle it is (itself or an image's original; -1 for the others) and whether it is
+        a fixed wall particle or a wall's periodic image."""
+        n = len(self.x_all)
+        fluid_of = np.full(n, -1, dtype=np.int64)
+        fluid_of[:self.nf] = np.arange(self.nf)
+        wall = np.zeros(n, dtype=np.bool_)
+        wall[self.nf:self.nf + self.n_walls] = True
+        if self.periodic is not None:
+            rows, src = self.periodic.rows, self.periodic.src
+            fluid_of[rows] = np.where(src < self.nf, src, -1)
+            wall[rows] = src >= self.nf
+        return fluid_of, wall
 
     def velocity_divergence(self, v_fluid, v_wall=(0.0, 0.0), out=None):
         """``div u`` of the fluid rows for a fluid velocity field and a velocity of the
@@ -712,7 +728,7 @@ class IncompressibleFluid:
         c = self.cfg.collision
         dv = np.empty((self.nf, 2))
         K.collision_dv(self.x_all, v, self.body["m"], self.ff_start, self.ff_j, self.nf,
-                       c.distance * self.dx, c.restitution, dv)
+                       self._row_roles()[0], c.distance * self.dx, c.restitution, dv)
         v += dv
 
     def _relaxation_shift(self, dt):
@@ -848,8 +864,9 @@ def warm_up(kind):
     ws = np.zeros(1, dtype=np.int64)
     assemble(x, vol, alpha, div, L, cls == 0, start, j, ws, np.zeros(0, dtype=np.int64), n, 0, h,
              kind, 0.01, 1.0, 1.0, 1.0, np.zeros((0, 2)))
-    K.pressure_gradient(x, p, vol, start, j, n, h, kind, 1.0, n, 0, 0, 0.0, 0.0, gp)
-    K.corrected_pressure_gradient(x, p, vol, L, start, j, n, h, kind, n, 0, 0, 0.0, 0.0, gp)
+    none = np.zeros(n, dtype=np.bool_)
+    K.pressure_gradient(x, p, vol, start, j, n, h, kind, 1.0, n, none, 0.0, 0.0, gp)
+    K.corrected_pressure_gradient(x, p, vol, L, start, j, n, h, kind, n, none, 0.0, 0.0, gp)
     dr = np.zeros((n, 2))
     for model in (0, 1, 2):
         K.shift_vectors(x, v, vol, start, j, n, h, kind, model, 1.0, 0.0, 0.1, cls, nrm, dr)

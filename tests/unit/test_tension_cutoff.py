@@ -98,3 +98,21 @@ tanks = [{{ origin = [0.0, 0.0], size = [0.04, 0.05] }}]
     with_suction, without = run(True), run(False)
     assert np.abs(without["v"]).max() < 1e-3 * np.sqrt(9.81 * 0.03)
     assert np.allclose(without["p"], with_suction["p"], rtol=0.0, atol=1e-3 * 1000 * 9.81 * 0.03)
+
+
+def test_row_roles_follow_periodic_images():
+    """The collision model and the wall floor see a periodic image as its original: a
+    fluid image as the fluid particle, a wall image as a wall (cases/bagnold.toml)."""
+    from pathlib import Path
+
+    case = Path(__file__).resolve().parents[2] / "cases" / "bagnold.toml"
+    sim = Simulation(load_config(case, ["case.dx=0.001"]))
+    f = sim.fluid
+    f.update_neighbors()
+    fluid_of, wall = f._row_roles()
+    rows, src = f.periodic.rows, f.periodic.src
+    assert (src < f.nf).sum() > 0 and (src >= f.nf).sum() > 0  # both kinds of images
+    assert np.array_equal(fluid_of[rows], np.where(src < f.nf, src, -1))
+    assert np.array_equal(wall[rows], src >= f.nf)
+    assert np.array_equal(fluid_of[:f.nf], np.arange(f.nf))
+    assert wall[f.nf:f.nf + f.n_walls].all() and not wall[:f.nf].any()
