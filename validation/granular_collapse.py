@@ -44,9 +44,10 @@ def lube_runout(a):
     return lo + (hi - lo) * (a - 1.8) / 1.0, "interpolated between the laws (1.8 < a < 2.8)"
 
 
-def deposit_front(x, dx):
-    """Largest x of the largest connected cluster of particles (neighbours closer than
-    1.5 dx): the continuous deposit, without particles or clusters thrown ahead of it."""
+def main_deposit(x, dx):
+    """Mask of the largest connected cluster of particles (neighbours closer than 1.5 dx):
+    the continuous deposit, without particles or clusters thrown ahead of it or left on a
+    wall."""
     import scipy.sparse as sp
     from scipy.sparse.csgraph import connected_components
 
@@ -56,8 +57,21 @@ def deposit_front(x, dx):
     rows = np.repeat(np.arange(len(x)), np.diff(start))
     graph = sp.csr_array((np.ones(len(j)), (rows, j)), shape=(len(x), len(x)))
     _, label = connected_components(graph, directed=False)
-    main = label == np.argmax(np.bincount(label))
+    return label == np.argmax(np.bincount(label))
+
+
+def deposit_front(x, dx):
+    """Largest x of the continuous deposit (:func:`main_deposit`) and the number of
+    particles outside it."""
+    main = main_deposit(x, dx)
     return float(x[main, 0].max()), int(len(x) - main.sum())
+
+
+def pile_height(x, dx):
+    """Height of the deposit at the back wall: the highest particle of the continuous
+    deposit within dx of it (a particle left stuck high on the wall does not count)."""
+    main = main_deposit(x, dx)
+    return float(x[main & (x[:, 0] < dx), 1].max(initial=0.0))
 
 
 def body_front(x, dx, rows=3):
@@ -113,7 +127,7 @@ def validate(quick, data_dir, out_dir):
             "runout_body": (body_front(x, dx) - L0) / L0,
             "particles_detached": n_detached,
             "front_at_end_wall": bool(front >= _tank_length(over) - 2.0 * dx),
-            "final_height_over_L0": float(x[x[:, 0] < dx, 1].max(initial=0.0) / L0),
+            "final_height_over_L0": pile_height(x, dx) / L0,
             "max_speed_at_end": sim.fluid.max_speed(),
             "dt_advective_median": float(np.median(log["dt_advective"])),
             "dt_viscous_explicit_median": float(np.median(log["dt_viscous_explicit"])),

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from validation.granular_collapse import body_front, deposit_front
+from validation.granular_collapse import body_front, deposit_front, pile_height
 
 DX = 0.01
 
@@ -33,3 +33,8 @@ def test_body_front_ends_where_the_columns_get_thinner_than_the_threshold():
     assert body_front(x, DX, rows=3) == pytest.approx(first_thin * DX)
     assert body_front(x, DX, rows=1) == pytest.approx(0.2)  # the carpet counts at 1 row
     assert body_front(x, DX, rows=7) == 0.0
+
+
+def test_pile_height_ignores_a_particle_left_on_the_back_wall():
+    x = np.vstack([_deposit(), [[0.5 * DX, 0.4]]])  # stuck 0.4 m up the back wall
+    assert pile_height(x, DX) == pytest.approx(5.5 * DX)
