@@ -60,17 +60,18 @@ def main_deposit(x, dx):
     return label == np.argmax(np.bincount(label))
 
 
-def deposit_front(x, dx):
-    """Largest x of the continuous deposit (:func:`main_deposit`) and the number of
-    particles outside it."""
-    main = main_deposit(x, dx)
+def deposit_front(x, dx, main=None):
+    """Largest x of the continuous deposit (:func:`main_deposit`, or its mask ``main``) and
+    the number of particles outside it."""
+    main = main_deposit(x, dx) if main is None else main
     return float(x[main, 0].max()), int(len(x) - main.sum())
 
 
-def pile_height(x, dx):
+def pile_height(x, dx, main=None):
     """Height of the deposit at the back wall: the highest particle of the continuous
-    deposit within dx of it (a particle left stuck high on the wall does not count)."""
-    main = main_deposit(x, dx)
+    deposit (:func:`main_deposit`, or its mask ``main``) within dx of it (a particle left
+    stuck high on the wall does not count)."""
+    main = main_deposit(x, dx) if main is None else main
     return float(x[main & (x[:, 0] < dx), 1].max(initial=0.0))
 
 
@@ -113,7 +114,9 @@ def validate(quick, data_dir, out_dir):
         label = f"a={a:g}"
         sim, summary = run_case(CASE, over, out_dir / label)
         x = sim.fluid.body["x"].copy()
-        front, n_detached = deposit_front(x, dx)
+        main = main_deposit(x, dx)
+        front, n_detached = deposit_front(x, dx, main)
+        body = body_front(x, dx)
         r_sim = (front - L0) / L0
         r_ref, law = lube_runout(a)
         err = 100.0 * abs(r_sim - r_ref) / r_ref
@@ -123,11 +126,10 @@ def validate(quick, data_dir, out_dir):
         records.append(record(label, dx, summary, {f"runout_pct_a{a:g}": err}, {
             "aspect_ratio": a, "L0_over_dx": L0 / dx, "runout_sim": r_sim, "runout_ref": r_ref,
             "reference_law": law, "L_inf_m": front, "surge_front_m": sim.fluid.surge_front(),
-            "body_front_m": body_front(x, dx),
-            "runout_body": (body_front(x, dx) - L0) / L0,
+            "body_front_m": body, "runout_body": (body - L0) / L0,
             "particles_detached": n_detached,
             "front_at_end_wall": bool(front >= _tank_length(over) - 2.0 * dx),
-            "final_height_over_L0": pile_height(x, dx) / L0,
+            "final_height_over_L0": pile_height(x, dx, main) / L0,
             "max_speed_at_end": sim.fluid.max_speed(),
             "dt_advective_median": float(np.median(log["dt_advective"])),
             "dt_viscous_explicit_median": float(np.median(log["dt_viscous_explicit"])),

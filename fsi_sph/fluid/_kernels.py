@@ -242,7 +242,9 @@ def collision_dv(x, v, m, nbr_start, nbr_j, nf, fluid_of, r_c, restitution, out_
     fluid particles closer than ``r_c`` that approach each other, ``w = (u_i - u_j) . n_ij
     < 0`` with ``n_ij = (x_i - x_j) / r``, loses the approach as in a collision with
     restitution ``e``: ``du_i = -(1 + e) m_j / (m_i + m_j) w n_ij`` (equal and opposite
-    momentum changes, so momentum is conserved; all pairs from the same ``v``).
+    momentum changes, so momentum is conserved; all pairs from the same ``v``). A numerical
+    contact rule with no equation in PHYSICS.md: it acts after the correction [F 18] only on
+    pairs closer than any the continuum flow leaves (interior pairs stay > 0.8 dx apart).
     ``fluid_of[j]``: the fluid particle that row ``j`` of the stacked positions is (itself,
     or the original of a periodic image), -1 for boundary rows; ``v`` and ``m`` per fluid
     particle."""
@@ -425,7 +427,10 @@ def wall_floor(p_w, p_i, r0, r1, rg0, rg1):
     pressure is a kernel average over the wall's fluid neighbours; at the tip of a granular
     front, where those are free-surface particles at p = 0, it fell below the pressure of the
     one particle pressed against the wall, whose gradient then pushed it into the wall, and
-    the growing compression raised its pressure 2.5-fold per step (to 0.6 MPa in 8 steps)."""
+    the growing compression raised its pressure 2.5-fold per step (to 0.6 MPa in 8 steps).
+    It changes only the wall terms of the correction's gradient [F 7, F 13] / [F 10]; the
+    floor itself has no equation in PHYSICS.md, and a hydrostatic wall pressure is its own
+    floor (a tank at rest is unchanged)."""
     return max(p_w, p_i + rg0 * r0 + rg1 * r1)
 
 

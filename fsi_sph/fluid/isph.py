@@ -330,6 +330,7 @@ class IncompressibleFluid:
             self.wf_start, self.wf_j = np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64)
         if self.periodic is not None:
             self.periodic.boundary_lists(self)
+        self._set_row_roles()
 
     def detect_free_surface(self):
         """``div r``, ``alpha`` [F 21], classes and normals [F 27-28] of the fluid rows."""
@@ -439,10 +440,7 @@ class IncompressibleFluid:
         ``body["p"]``: the viscosity law sees it too."""
         b = self.body
         rows = np.repeat(np.arange(self.nf), np.diff(self.ff_start))
-        inner = self.ff_j < self.nf
-        if self.periodic is not None:  # the fluid images are fluid neighbours too
-            img, _ = self.periodic.fluid_images()
-            inner |= np.isin(self.ff_j, img)
+        inner = self.fluid_of[self.ff_j] >= 0  # the fluid images are fluid neighbours too
         n_fluid = np.bincount(rows[inner], minlength=self.nf)
         self.drops = 4 * n_fluid < self.n_full
         b["p"][self.drops] = 0.0
@@ -492,12 +490,11 @@ class IncompressibleFluid:
         relaxation's displacement pressure)."""
         jmax = self.nf + self.nw - self.ns
         rg = (0.0, 0.0)
+        floored = self.no_rows
         if not self.cfg.wall_suction and floor is not None:
-            floored = self._row_roles()[1]
+            floored = self.wall_rows
             if floor == "pressure":
                 rg = (self.rho * self.gravity[0], self.rho * self.gravity[1])
-        else:
-            floored = np.zeros(len(p), dtype=np.bool_)
         if self.cfg.pressure_gradient == "conservative":
             K.pressure_gradient(self.x_all, p, self.vol_all, self.ff_start, self.ff_j, self.nf,
                                 self.h, self.kernel, self.grad_scale, jmax, floored, rg[0],
@@ -508,20 +505,23 @@ class IncompressibleFluid:
                                           rg[0], rg[1], out)
         return out
 
-    def _row_roles(self):
-        """Per stacked row ``[fluid | walls | structures | periodic images]``: the fluid
-        particle it is (itself or an image's original; -1 for the others) and whether it is
-        a fixed wall particle or a wall's periodic image."""
+    def _set_row_roles(self):
+        """Roles of the stacked rows ``[fluid | walls | structures | periodic images]``, set
+        whenever the layout may change (:meth:`update_neighbors`): ``fluid_of``, the fluid
+        particle a row is (itself or an image's original; -1 for the others: the viscous
+        step's unknown of a row, the collision model's partner); ``wall_rows``, the fixed
+        wall particles and the walls' periodic images (the floor of ``wall_suction =
+        false``); ``no_rows``, all False."""
         n = len(self.x_all)
-        fluid_of = np.full(n, -1, dtype=np.int64)
-        fluid_of[:self.nf] = np.arange(self.nf)
-        wall = np.zeros(n, dtype=np.bool_)
-        wall[self.nf:self.nf + self.n_walls] = True
+        self.fluid_of = np.full(n, -1, dtype=np.int64)
+        self.fluid_of[:self.nf] = np.arange(self.nf)
+        self.wall_rows = np.zeros(n, dtype=np.bool_)
+        self.wall_rows[self.nf:self.nf + self.n_walls] = True
         if self.periodic is not None:
             rows, src = self.periodic.rows, self.periodic.src
-            fluid_of[rows] = np.where(src < self.nf, src, -1)
-            wall[rows] = src >= self.nf
-        return fluid_of, wall
+            self.fluid_of[rows] = np.where(src < self.nf, src, -1)
+            self.wall_rows[rows] = src >= self.nf
+        self.no_rows = np.zeros(n, dtype=np.bool_)
 
     def velocity_divergence(self, v_fluid, v_wall=(0.0, 0.0), out=None):
         """``div u`` of the fluid rows for a fluid velocity field and a velocity of the
@@ -728,7 +728,7 @@ class IncompressibleFluid:
         c = self.cfg.collision
         dv = np.empty((self.nf, 2))
         K.collision_dv(self.x_all, v, self.body["m"], self.ff_start, self.ff_j, self.nf,
-                       self._row_roles()[0], c.distance * self.dx, c.restitution, dv)
+                       self.fluid_of, c.distance * self.dx, c.restitution, dv)
         v += dv
 
     def _relaxation_shift(self, dt):

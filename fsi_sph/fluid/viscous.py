@@ -348,11 +348,7 @@ def predict(fluid, dt):
     g = fluid.gravity
     # body force of the solve: g, or g - grad p^n / rho with the incremental projection
     force = g - fluid.lagged_pressure_acceleration() if fluid.incremental_step else g
-    col_of = np.full(len(fluid.x_all), -1, dtype=np.int64)
-    col_of[:nf] = np.arange(nf)
-    if fluid.periodic is not None:
-        rows, src = fluid.periodic.fluid_images()
-        col_of[rows] = src
+    col_of = fluid.fluid_of  # the unknown of each stacked row (-1: known boundary velocity)
     mirror = None
     wall_rows = col_of[nf:] < 0  # boundary rows of known velocity (not periodic images)
     if law.kind != "newtonian" and wall_rows.any():

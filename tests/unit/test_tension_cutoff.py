@@ -109,7 +109,7 @@ def test_row_roles_follow_periodic_images():
     sim = Simulation(load_config(case, ["case.dx=0.001"]))
     f = sim.fluid
     f.update_neighbors()
-    fluid_of, wall = f._row_roles()
+    fluid_of, wall = f.fluid_of, f.wall_rows
     rows, src = f.periodic.rows, f.periodic.src
     assert (src < f.nf).sum() > 0 and (src >= f.nf).sum() > 0  # both kinds of images
     assert np.array_equal(fluid_of[rows], np.where(src < f.nf, src, -1))
