@@ -295,7 +295,9 @@ class MuIParameters(_Model):
     pressure_offset: Literal["half_spacing", "none"] = Field(
         "half_spacing", description="`half_spacing`: the law's confining pressure is the ISPH "
         "pressure plus rho |g| dx / 2, the head of the half spacing between the p = 0 "
-        "surface-particle centres and the real free surface; `none`: the ISPH pressure")
+        "surface-particle centres and the real free surface, added for the law only; `none`: "
+        "the ISPH pressure (use it with fluid.surface_offset = 0.5, which puts that head into "
+        "the pressure field itself, so that the pressure force sees it too)")
 
     @model_validator(mode="after")
     def _mu2_gt_mus(self):
@@ -450,6 +452,15 @@ class FluidSection(_Model):
         "hardly sees it, so no increment takes it back); 0 = the pure incremental form. "
         "Experimental: 0.1 made the sand collapse's run-out independent of dt but blew up "
         "the a = 0.5 glass-bead collapse at 0.38 s (docs/incr_notes_2026-11-30.md)")
+    surface_offset: Annotated[float, Field(ge=0.0, le=1.0)] = Field(
+        0.0, description="distance (in dx) from a free-surface particle to the free surface "
+        "it stands for; the surface rows' pressure condition p = 0 holds there, so a surface "
+        "particle takes p_s = offset dx max(0, -n . grad p^n), the last pressure extrapolated "
+        "along the surface normal n (in a layer at rest rho g cos(theta) dx / 2 with 0.5; 0 "
+        "in free fall). 0 = the particle is on the surface (PHYSICS.md [F 20-21] as written). "
+        "With 0 a layer k particles thick carries the weight of k - 1/2 of them: 10 % short "
+        "at 5 rows, which a frictional (mu(I)) material reads as 10 % less friction "
+        "(fsi_sph/fluid/isph.py _surface_pressure)")
     collision: CollisionSection | None = Field(
         None, description="absent: no particle collision model")
     wall_suction: bool = Field(
@@ -478,6 +489,14 @@ class FluidSection(_Model):
                              "viscosity laws, not to material.viscosity = \"mu_i\"")
         if self.periodic_x is not None and not self.periodic_x[1] > self.periodic_x[0]:
             raise ValueError(f"periodic_x = {list(self.periodic_x)}: need x_max > x_min")
+        mu_i = self.material.mu_i
+        if (self.surface_offset > 0.0 and mu_i is not None
+                and mu_i.pressure_offset == "half_spacing"):
+            raise ValueError(
+                f"surface_offset = {self.surface_offset} puts the head between the surface "
+                "particles and the free surface into the pressure itself; "
+                "material.mu_i.pressure_offset = \"half_spacing\" would add it a second "
+                "time: set pressure_offset = \"none\" (or surface_offset = 0)")
         return self
 
 
