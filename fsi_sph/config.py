@@ -463,6 +463,13 @@ class FluidSection(_Model):
         "(fsi_sph/fluid/isph.py _surface_pressure)")
     collision: CollisionSection | None = Field(
         None, description="absent: no particle collision model")
+    wall_pressure: Literal["adami", "mirror"] = Field(
+        "adami", description="pressure of the fixed wall particles in the PPE: `adami` "
+        "p_w = <p_f> + rho g . (x_w - <x_f>) (Adami et al. 2012), whose hydrostatic term "
+        "also holds a droplet beside a vertical wall; `mirror`: the hydrostatic term along "
+        "the wall's normal only, and along the wall the fluid's own (fluid-only, lagged) "
+        "pressure gradient: the same at rest, and a droplet or film on a vertical wall "
+        "falls (fsi_sph/fluid/isph.py _wall_body_force)")
     wall_suction: bool = Field(
         True, description="false: a fixed wall cannot pull a fluid particle: in the "
         "correction's pressure gradient a wall particle's pressure is at least the fluid "

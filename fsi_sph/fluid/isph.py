@@ -48,6 +48,7 @@ from fsi_sph.sph.kernels import KERNELS, SUPPORT, kernel_dw, kernel_w
 
 ETA = 0.1  # Morris regularisation eta = 0.1 h [F 11]
 FRONT_MIN_NEIGHBORS = 3  # fluid neighbours of a particle counted in the surge front
+CARRIED_FULL = 0.9  # wall_pressure = "mirror": fluid gradient share taken as a full column
 DIVR_FULL = 1.95  # div r below this: the kernel support is taken as truncated (full: ~2)
 
 
@@ -154,6 +155,8 @@ class IncompressibleFluid:
         self.drops = np.zeros(self.nf, dtype=bool)
         self._acc_lag = np.zeros((self.nf, 2))  # grad p^n / rho of the step
         self.p_surface = np.zeros(self.nf)  # the surface rows' target (_surface_pressure)
+        self._no_rg = np.zeros((0, 2))  # the floor's rho g per stacked row, none (_pressure_gradient)
+        self._gb_cache = None  # _wall_body_force of the step (mirror walls)
         self.incremental_step = False  # this step's projection is the incremental one
         # boundary velocity u_b and body force g - a_b of the boundary rows (Adami)
         self.v_b = np.zeros((self.nw, 2))
@@ -396,6 +399,7 @@ class IncompressibleFluid:
         if self.incremental and not self.p_known:
             self._initial_pressure(dt)
         self.incremental_step = self.incremental
+        self._gb_cache = None  # new positions and p^n: the mirror walls' force anew
         if self.incremental_step:
             self._carried_pressure()
             self._refresh_wall_pressure()
@@ -465,7 +469,8 @@ class IncompressibleFluid:
             K.shepard_at(xw, self.x_all, np.ascontiguousarray(field), self.wf_start,
                          self.wf_j, self.h, self.kernel, mean[:, k])
         rbar = xw - mean[:, 1:]
-        pw = mean[:, 0] + self.rho * np.einsum("ij,ij->i", self.g_b[:nwall], rbar)
+        gb = self._wall_body_force()[:nwall]
+        pw = mean[:, 0] + self.rho * np.einsum("ij,ij->i", gb, rbar)
         self.p_all[nf:nf + nwall] = np.where(np.isfinite(pw), pw, 0.0)
         self._sync()  # (the periodic wall images)
 
@@ -490,20 +495,24 @@ class IncompressibleFluid:
         carry), "increment" (an increment of it: none) or None (no floor: the density
         relaxation's displacement pressure)."""
         jmax = self.nf + self.nw - self.ns
-        rg = (0.0, 0.0)
+        rg = self._no_rg
+        if len(rg) != len(self.x_all):
+            rg = self._no_rg = np.zeros((len(self.x_all), 2))
         floored = self.no_rows
         if not self.cfg.wall_suction and floor is not None:
             floored = self.wall_rows
-            if floor == "pressure":
-                rg = (self.rho * self.gravity[0], self.rho * self.gravity[1])
+            if floor == "pressure":  # the walls' own extrapolation force (_wall_body_force)
+                rg = np.zeros((len(self.x_all), 2))
+                rg[self.wall_rows] = self.rho * self.gravity
+                rg[self.nf:self.nf + self.n_walls] = (
+                    self.rho * self._wall_body_force()[:self.n_walls])
         if self.cfg.pressure_gradient == "conservative":
             K.pressure_gradient(self.x_all, p, self.vol_all, self.ff_start, self.ff_j, self.nf,
-                                self.h, self.kernel, self.grad_scale, jmax, floored, rg[0],
-                                rg[1], out)
+                                self.h, self.kernel, self.grad_scale, jmax, floored, rg, out)
         else:
             K.corrected_pressure_gradient(self.x_all, p, self.vol_all, self.L, self.ff_start,
                                           self.ff_j, self.nf, self.h, self.kernel, jmax, floored,
-                                          rg[0], rg[1], out)
+                                          rg, out)
         return out
 
     def _set_row_roles(self):
@@ -571,8 +580,8 @@ class IncompressibleFluid:
         A, rhs = assemble(self.x_all, self.vol_all, alpha, source, self.L, self.consistent,
                           self.ff_start, self.ff_j,
                           self.wf_start, self.wf_j, self.nf, self.nw, self.h, self.kernel,
-                          self.eta2, self.lap_scale, self.diag_ref, self.rho, self.g_b,
-                          self.implicit)
+                          self.eta2, self.lap_scale, self.diag_ref, self.rho,
+                          self._wall_body_force(), self.implicit)
         if self.cfg.surface_offset > 0.0:
             self._offset_surface_rows(A, rhs, alpha)
         if self.incremental_step:
@@ -633,6 +642,69 @@ class IncompressibleFluid:
         blend = np.where(np.diff(self.ff_start) == 0, 0.0, np.clip(alpha, 0.0, 1.0))
         self.p_surface = self._surface_pressure()
         rhs[:nf] += (1.0 - blend) * A.diagonal()[:nf] * self.p_surface
+
+    def _wall_body_force(self):
+        """The body force ``g - a_b`` of the boundary rows in Adami's extrapolation
+        ``p_w = <p_f> + rho (g - a_w) . (x_w - <x_f>)`` (``self.g_b``). With
+        ``fluid.wall_pressure = "mirror"`` a fixed wall's row uses ``n (n . g) + c t (t .
+        g)``: the hydrostatic term along its normal ``n`` in full, and along the wall
+        (``t``) the share ``c`` of it that the fluid beside the wall carries itself, ``c =
+        clip(t . G_w / (0.9 t . g), 0, 1)`` with ``G_w = <grad p_f / rho>_w`` the Shepard
+        average of the last pressure's gradient taken over fluid neighbours only
+        (:meth:`_fluid_only_gradient`). In a fluid at rest ``G = g`` (to 0.2-1.6 % next to
+        a wall and its waterline, hence the 0.9: with ``c = t . G / t . g`` itself those
+        few per cent drove currents of 0.02 sqrt(g H) in the tank) and nothing changes; for
+        a droplet or a film on a vertical wall the fluid has no pressure gradient along the
+        wall, ``c = 0``, and the droplet falls instead of being held by the walls'
+        hydrostatic field (tests/unit/test_wall_droplet.py)."""
+        if self.cfg.wall_pressure != "mirror" or not self.n_walls or not self.p_known:
+            return self.g_b  # (before the first solve there is no gradient to read)
+        nf, nwall = self.nf, self.n_walls
+        gb = self.g_b.copy()  # (the structures' rows as set_structures left them)
+        if self._gb_cache is not None:  # the fixed walls' rows: once per step (predict)
+            gb[:nwall] = self._gb_cache
+            return gb
+        grad = self._fluid_only_gradient() / self.rho
+        src = self.fluid_of
+        avg = np.empty((nwall, 2))
+        for k in range(2):
+            field = np.where(src >= 0, grad[np.maximum(src, 0), k], 0.0)
+            K.shepard_at(self.x_all[nf:nf + nwall], self.x_all, field, self.wf_start,
+                         self.wf_j, self.h, self.kernel, avg[:, k])
+        n = self.wall_n[:nwall]
+        t = np.column_stack([-n[:, 1], n[:, 0]])
+        along = np.einsum("ij,ij->i", t, np.where(np.isfinite(avg), avg, 0.0))
+        g_t = t @ self.gravity
+        with np.errstate(divide="ignore", invalid="ignore"):
+            carried = np.clip(along / (CARRIED_FULL * g_t), 0.0, 1.0)
+        # floors (within ~15 deg of level): the whole term, as Adami's (a floor's normals
+        # wobble by a fraction of a degree next to a corner, and a few Pa of difference
+        # from the exact hydrostatic wall pressure drive cm/s currents in a tank at rest)
+        carried = np.where(np.abs(g_t) > 0.25 * np.linalg.norm(self.gravity), carried, 1.0)
+        has_n = np.einsum("ij,ij->i", n, n) > 0.5
+        mirror = n * (n @ self.gravity)[:, None] + (carried * g_t)[:, None] * t
+        gb[:nwall] = np.where(has_n[:, None], mirror, gb[:nwall])
+        self._gb_cache = gb[:nwall].copy()
+        return gb
+
+    def _fluid_only_gradient(self):
+        """Corrected gradient [F 7, F 13] of the last pressure at the fluid rows over their
+        fluid neighbours only (periodic fluid images included), with its own correction
+        matrices: the fluid's pressure gradient without the walls' extrapolated pressures
+        (a lone particle: 0)."""
+        nf = self.nf
+        keep = self.fluid_of[self.ff_j] >= 0
+        rows = np.repeat(np.arange(nf), np.diff(self.ff_start))
+        start = np.zeros(nf + 1, dtype=np.int64)
+        np.cumsum(np.bincount(rows[keep], minlength=nf), out=start[1:])
+        j = np.ascontiguousarray(self.ff_j[keep])
+        L = np.empty((nf, 2, 2))
+        K.correction_matrices(self.x_all, self.vol_all, start, j, self.h, self.kernel, L)
+        gp = np.empty((nf, 2))
+        gv = np.empty((nf, 2, 2))
+        K.gradients(self.x_all, self.p_all, self.v_all, self.vol_all, L, start, j, nf,
+                    self.h, self.kernel, gp, gv)
+        return gp
 
     def _cut_tension(self, p):
         """``max(p, 0)`` for a cohesionless material (``fluid.tension_cutoff``): the fluid,
@@ -909,8 +981,9 @@ def warm_up(kind):
     assemble(x, vol, alpha, div, L, cls == 0, start, j, ws, np.zeros(0, dtype=np.int64), n, 0, h,
              kind, 0.01, 1.0, 1.0, 1.0, np.zeros((0, 2)))
     none = np.zeros(n, dtype=np.bool_)
-    K.pressure_gradient(x, p, vol, start, j, n, h, kind, 1.0, n, none, 0.0, 0.0, gp)
-    K.corrected_pressure_gradient(x, p, vol, L, start, j, n, h, kind, n, none, 0.0, 0.0, gp)
+    rg = np.zeros((n, 2))
+    K.pressure_gradient(x, p, vol, start, j, n, h, kind, 1.0, n, none, rg, gp)
+    K.corrected_pressure_gradient(x, p, vol, L, start, j, n, h, kind, n, none, rg, gp)
     dr = np.zeros((n, 2))
     for model in (0, 1, 2):
         K.shift_vectors(x, v, vol, start, j, n, h, kind, model, 1.0, 0.0, 0.1, cls, nrm, dr)

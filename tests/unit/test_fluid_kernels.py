@@ -45,12 +45,12 @@ def test_velocity_divergence_and_gradients_match_oracle(perturbed):
     K.velocity_divergence(x, v, vol, s, j, nf, H, KIND, 1.01, out)
     assert_allclose(out, ref.velocity_divergence(x, v, vol, H, nf, 1.01), rtol=1e-12, atol=1e-13)
     g = np.zeros((nf, 2))
-    K.pressure_gradient(x, p, vol, s, j, nf, H, KIND, 1.01, len(x), np.zeros(len(x), bool), 0.0, 0.0, g)
+    K.pressure_gradient(x, p, vol, s, j, nf, H, KIND, 1.01, len(x), np.zeros(len(x), bool), np.zeros((len(x), 2)), g)
     assert_allclose(g, ref.conservative_gradient(x, p, vol, H, nf, 1.01), rtol=1e-12, atol=1e-13)
     L = np.zeros((nf, 2, 2))
     K.correction_matrices(x, vol, s, j, H, KIND, L)
     assert_allclose(L, ref.correction(x, vol, H, nf), rtol=1e-12, atol=1e-13)
-    K.corrected_pressure_gradient(x, p, vol, L, s, j, nf, H, KIND, len(x), np.zeros(len(x), bool), 0.0, 0.0, g)
+    K.corrected_pressure_gradient(x, p, vol, L, s, j, nf, H, KIND, len(x), np.zeros(len(x), bool), np.zeros((len(x), 2)), g)
     assert_allclose(g, ref.corrected_gradient(x, p, vol, H, nf), rtol=1e-12, atol=1e-13)
     nu = rng.uniform(1e-3, 2e-3, n)
     vs = np.zeros((nf, 2))
@@ -361,9 +361,9 @@ def test_wall_floor_matches_oracle(perturbed, rg):
     for corrected in (True, False):
         g = np.zeros((nf, 2))
         if corrected:
-            K.corrected_pressure_gradient(x, p, vol, L, s, j, nf, H, KIND, n, np.arange(n) >= nf, *rg, g)
+            K.corrected_pressure_gradient(x, p, vol, L, s, j, nf, H, KIND, n, np.arange(n) >= nf, np.tile(rg, (n, 1)), g)
         else:
-            K.pressure_gradient(x, p, vol, s, j, nf, H, KIND, 1.01, n, np.arange(n) >= nf, *rg, g)
+            K.pressure_gradient(x, p, vol, s, j, nf, H, KIND, 1.01, n, np.arange(n) >= nf, np.tile(rg, (n, 1)), g)
         changed = 0
         for i in range(nf):
             q = _floored(x, p, i, nf, n, rgv)
@@ -390,13 +390,13 @@ def test_wall_floor_pushes_a_particle_off_the_wall_and_keeps_hydrostatics():
     p = np.zeros(n)
     p[i] = 100.0
     g = np.zeros((nf, 2))
-    K.corrected_pressure_gradient(x, p, vol, L, s, j, nf, H, KIND, n, np.zeros(n, bool), 0.0, 0.0, g)
+    K.corrected_pressure_gradient(x, p, vol, L, s, j, nf, H, KIND, n, np.zeros(n, bool), np.zeros((len(x), 2)), g)
     assert g[i, 1] > 0.0  # -grad p points down: into the floor
-    K.corrected_pressure_gradient(x, p, vol, L, s, j, nf, H, KIND, n, np.arange(n) >= nf, 0.0, 0.0, g)
+    K.corrected_pressure_gradient(x, p, vol, L, s, j, nf, H, KIND, n, np.arange(n) >= nf, np.zeros((len(x), 2)), g)
     assert g[i, 1] < 0.0
     rg = np.array([0.0, -9.81])
     ph = 50.0 + x @ rg  # hydrostatic p0 + rho g . x (rho = 1), surface above
     g0, g1 = np.zeros((nf, 2)), np.zeros((nf, 2))
-    K.corrected_pressure_gradient(x, ph, vol, L, s, j, nf, H, KIND, n, np.zeros(n, bool), 0.0, 0.0, g0)
-    K.corrected_pressure_gradient(x, ph, vol, L, s, j, nf, H, KIND, n, np.arange(n) >= nf, *rg, g1)
+    K.corrected_pressure_gradient(x, ph, vol, L, s, j, nf, H, KIND, n, np.zeros(n, bool), np.zeros((len(x), 2)), g0)
+    K.corrected_pressure_gradient(x, ph, vol, L, s, j, nf, H, KIND, n, np.arange(n) >= nf, np.tile(rg, (n, 1)), g1)
     assert_allclose(g1, g0, rtol=1e-12, atol=1e-9)
