@@ -155,7 +155,7 @@ class IncompressibleFluid:
         self.drops = np.zeros(self.nf, dtype=bool)
         self._acc_lag = np.zeros((self.nf, 2))  # grad p^n / rho of the step
         self.p_surface = np.zeros(self.nf)  # the surface rows' target (_surface_pressure)
-        self._no_rg = np.zeros((0, 2))  # the floor's rho g per stacked row, none (_pressure_gradient)
+        self._no_rg = np.zeros((0, 2))  # no floor: rho g per stacked row (_pressure_gradient)
         self._gb_cache = None  # _wall_body_force of the step (mirror walls)
         self.incremental_step = False  # this step's projection is the incremental one
         # boundary velocity u_b and body force g - a_b of the boundary rows (Adami)
