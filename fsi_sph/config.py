@@ -456,8 +456,9 @@ class FluidSection(_Model):
         0.0, description="distance (in dx) from a free-surface particle to the free surface "
         "it stands for; the surface rows' pressure condition p = 0 holds there, so a surface "
         "particle takes p_s = offset dx max(0, -n . grad p^n), the last pressure extrapolated "
-        "along the surface normal n (in a layer at rest rho g cos(theta) dx / 2 with 0.5; 0 "
-        "in free fall). 0 = the particle is on the surface (PHYSICS.md [F 20-21] as written). "
+        "along the surface normal n, at most offset dx rho max(0, -g . n) (in a layer at rest "
+        "rho g cos(theta) dx / 2 with 0.5; 0 in free fall). 0 = the particle is on the "
+        "surface (PHYSICS.md [F 20-21] as written). "
         "With 0 a layer k particles thick carries the weight of k - 1/2 of them: 10 % short "
         "at 5 rows, which a frictional (mu(I)) material reads as 10 % less friction "
         "(fsi_sph/fluid/isph.py _surface_pressure)")

@@ -155,7 +155,6 @@ class IncompressibleFluid:
         self.drops = np.zeros(self.nf, dtype=bool)
         self._acc_lag = np.zeros((self.nf, 2))  # grad p^n / rho of the step
         self.p_surface = np.zeros(self.nf)  # the surface rows' target (_surface_pressure)
-        self._no_rg = np.zeros((0, 2))  # no floor: rho g per stacked row (_pressure_gradient)
         self._gb_cache = None  # _wall_body_force of the step (mirror walls)
         self.incremental_step = False  # this step's projection is the incremental one
         # boundary velocity u_b and body force g - a_b of the boundary rows (Adami)
@@ -495,17 +494,15 @@ class IncompressibleFluid:
         carry), "increment" (an increment of it: none) or None (no floor: the density
         relaxation's displacement pressure)."""
         jmax = self.nf + self.nw - self.ns
-        rg = self._no_rg
-        if len(rg) != len(self.x_all):
-            rg = self._no_rg = np.zeros((len(self.x_all), 2))
+        rg = self.no_rg
         floored = self.no_rows
         if not self.cfg.wall_suction and floor is not None:
             floored = self.wall_rows
             if floor == "pressure":  # the walls' own extrapolation force (_wall_body_force)
-                rg = np.zeros((len(self.x_all), 2))
-                rg[self.wall_rows] = self.rho * self.gravity
-                rg[self.nf:self.nf + self.n_walls] = (
-                    self.rho * self._wall_body_force()[:self.n_walls])
+                rg = self.floor_rg
+                if self.cfg.wall_pressure == "mirror":
+                    rg[self.nf:self.nf + self.n_walls] = (
+                        self.rho * self._wall_body_force()[:self.n_walls])
         if self.cfg.pressure_gradient == "conservative":
             K.pressure_gradient(self.x_all, p, self.vol_all, self.ff_start, self.ff_j, self.nf,
                                 self.h, self.kernel, self.grad_scale, jmax, floored, rg, out)
@@ -521,7 +518,8 @@ class IncompressibleFluid:
         particle a row is (itself or an image's original; -1 for the others: the viscous
         step's unknown of a row, the collision model's partner); ``wall_rows``, the fixed
         wall particles and the walls' periodic images (the floor of ``wall_suction =
-        false``); ``no_rows``, all False."""
+        false``), with ``floor_rg = rho g`` on them (the mirror walls' rows are refreshed
+        in :meth:`_pressure_gradient`); ``no_rows`` all False, ``no_rg`` all 0."""
         n = len(self.x_all)
         self.fluid_of = np.full(n, -1, dtype=np.int64)
         self.fluid_of[:self.nf] = np.arange(self.nf)
@@ -532,6 +530,9 @@ class IncompressibleFluid:
             self.fluid_of[rows] = np.where(src < self.nf, src, -1)
             self.wall_rows[rows] = src >= self.nf
         self.no_rows = np.zeros(n, dtype=np.bool_)
+        self.no_rg = np.zeros((n, 2))
+        self.floor_rg = np.zeros((n, 2))
+        self.floor_rg[self.wall_rows] = self.rho * self.gravity
 
     def velocity_divergence(self, v_fluid, v_wall=(0.0, 0.0), out=None):
         """``div u`` of the fluid rows for a fluid velocity field and a velocity of the
@@ -617,7 +618,8 @@ class IncompressibleFluid:
         granular collapse, extrapolated as it was, kicked a toe particle into the floor at
         1.85 m/s (twice the free-fall speed from the column's top; a = 0.5, full
         resolution). Zero where a row has no normal (interior class), for drops and for
-        rows without neighbours."""
+        rows without neighbours. It changes only the target of the Dirichlet part of the
+        [F 20-21] rows; the offset itself has no equation in PHYSICS.md."""
         b = self.body
         if self.incremental_step:
             grad = self._acc_lag * self.rho
@@ -625,7 +627,7 @@ class IncompressibleFluid:
             grad = np.empty((self.nf, 2))
             self._pressure_gradient(self.p_all, grad)
         dpdn = np.einsum("ij,ij->i", b["normal"], grad)
-        head = self.rho * np.maximum(-(b["normal"] @ np.asarray(self.gravity, float)), 0.0)
+        head = self.rho * np.maximum(-(b["normal"] @ self.gravity), 0.0)
         ps = self.cfg.surface_offset * self.dx * np.clip(-dpdn, 0.0, head)
         ps[np.diff(self.ff_start) == 0] = 0.0
         if self.incremental_step:
@@ -656,7 +658,8 @@ class IncompressibleFluid:
         few per cent drove currents of 0.02 sqrt(g H) in the tank) and nothing changes; for
         a droplet or a film on a vertical wall the fluid has no pressure gradient along the
         wall, ``c = 0``, and the droplet falls instead of being held by the walls'
-        hydrostatic field (tests/unit/test_wall_droplet.py)."""
+        hydrostatic field (tests/unit/test_wall_droplet.py). A boundary rule with no
+        equation in PHYSICS.md (which leaves the wall pressure to the implementation)."""
         if self.cfg.wall_pressure != "mirror" or not self.n_walls or not self.p_known:
             return self.g_b  # (before the first solve there is no gradient to read)
         nf, nwall = self.nf, self.n_walls
@@ -701,9 +704,9 @@ class IncompressibleFluid:
         L = np.empty((nf, 2, 2))
         K.correction_matrices(self.x_all, self.vol_all, start, j, self.h, self.kernel, L)
         gp = np.empty((nf, 2))
-        gv = np.empty((nf, 2, 2))
-        K.gradients(self.x_all, self.p_all, self.v_all, self.vol_all, L, start, j, nf,
-                    self.h, self.kernel, gp, gv)
+        K.corrected_pressure_gradient(self.x_all, self.p_all, self.vol_all, L, start, j, nf,
+                                      self.h, self.kernel, len(self.x_all), self.no_rows,
+                                      self.no_rg, gp)
         return gp
 
     def _cut_tension(self, p):

@@ -22,14 +22,17 @@ from fsi_sph.simulation import Simulation
 DX = 0.005
 
 
-def _droplet(x0, wall_pressure, suction=True):
+def _run(block, tank, t_end, wall_pressure, suction=True, dx=DX):
+    """A water block ``(origin, size)`` in an open tank of inner size ``tank``, run to
+    ``t_end``."""
+    (ox, oy), (sx, sy) = block
     text = f"""
 [case]
-t_end = 0.05
-dx = {DX}
+t_end = {t_end}
+dx = {dx}
 gravity = [0.0, -9.81]
 [fluid]
-blocks = [{{ origin = [{x0 - 0.5 * DX}, 0.3], size = [{DX}, {DX}] }}]
+blocks = [{{ origin = [{ox}, {oy}], size = [{sx}, {sy}] }}]
 dt_max = 1.0e-3
 wall_pressure = "{wall_pressure}"
 wall_suction = {str(suction).lower()}
@@ -38,11 +41,15 @@ rho0 = 1000.0
 nu = 1.0e-6
 [walls]
 layers = 3
-tanks = [{{ origin = [0.0, 0.0], size = [0.2, 0.5] }}]
+tanks = [{{ origin = [0.0, 0.0], size = [{tank[0]}, {tank[1]}] }}]
 """
     sim = Simulation(load_config(None, text=text))
     sim.run(out_dir=None)
     return sim
+
+
+def _droplet(x0, wall_pressure, suction=True):
+    return _run(((x0 - 0.5 * DX, 0.3), (DX, DX)), (0.2, 0.5), 0.05, wall_pressure, suction)
 
 
 def test_droplet_away_from_the_wall_falls_freely():
@@ -64,21 +71,5 @@ def test_adami_walls_hold_the_droplet():
 
 @pytest.mark.parametrize("wall_pressure", ["adami", "mirror"])
 def test_tank_at_rest_stays_at_rest(wall_pressure):
-    text = f"""
-[case]
-t_end = 0.5
-dx = 0.04
-gravity = [0.0, -9.81]
-[fluid]
-blocks = [{{ origin = [0.0, 0.0], size = [1.0, 1.0] }}]
-wall_pressure = "{wall_pressure}"
-[fluid.material]
-rho0 = 1000.0
-nu = 1.0e-6
-[walls]
-layers = 3
-tanks = [{{ origin = [0.0, 0.0], size = [1.0, 1.2] }}]
-"""
-    sim = Simulation(load_config(None, text=text))
-    sim.run(out_dir=None)
+    sim = _run(((0.0, 0.0), (1.0, 1.0)), (1.0, 1.2), 0.5, wall_pressure, dx=0.04)
     assert sim.fluid.max_speed() < 1e-6 * math.sqrt(9.81 * 1.0)
