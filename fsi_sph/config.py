@@ -425,6 +425,13 @@ class FluidSection(_Model):
     cfl: Annotated[float, Field(gt=0.0, le=0.5)] = Field(
         0.2, description="advective limit dt = cfl h / |u|max [F 48]")
     dt_max: Positive = Field(1.0, description="upper bound on the fluid time step (s)")
+    jitter: Annotated[float, Field(ge=0.0, le=0.1)] = Field(
+        0.0, description="each initial fluid particle is moved by a random displacement, "
+        "uniform in [-jitter, jitter] dx per component (seeded by `jitter_seed`): one "
+        "realization of a flow whose details depend on the lattice's accidents (a granular "
+        "tail one or two particles thick); 0 = the regular lattice")
+    jitter_seed: Annotated[int, Field(ge=0)] = Field(
+        0, description="seed of the random generator of `jitter`")
     initial_velocity: Vec2 = Field(
         (0.0, 0.0), description="velocity of every fluid particle at t = 0 (m/s)")
     viscous_step: Literal["explicit", "implicit"] = Field(
@@ -465,12 +472,19 @@ class FluidSection(_Model):
     collision: CollisionSection | None = Field(
         None, description="absent: no particle collision model")
     wall_pressure: Literal["adami", "mirror"] = Field(
-        "adami", description="pressure of the fixed wall particles in the PPE: `adami` "
+        "mirror", description="pressure of the fixed wall particles in the PPE: `adami` "
         "p_w = <p_f> + rho g . (x_w - <x_f>) (Adami et al. 2012), whose hydrostatic term "
-        "also holds a droplet beside a vertical wall; `mirror`: the hydrostatic term along "
-        "the wall's normal only, and along the wall the fluid's own (fluid-only, lagged) "
+        "also holds a droplet beside a vertical wall; `mirror` (default): the hydrostatic term "
+        "along the wall's normal only, and along the wall the fluid's own (fluid-only, lagged) "
         "pressure gradient: the same at rest, and a droplet or film on a vertical wall "
         "falls (fsi_sph/fluid/isph.py _wall_body_force)")
+    wall_contact: Literal["projection", "inelastic"] = Field(
+        "projection", description="`projection`: the pressure solve keeps the fluid out of "
+        "the fixed walls (the kinematic guard acts on the corrected velocity only); "
+        "`inelastic`: before the solve, a particle at or reaching half a spacing from a "
+        "wall loses its velocity into it (a grain's contact, restitution 0), so that no "
+        "impulsive pressure stops it and kicks its neighbours (fsi_sph/fluid/isph.py "
+        "_inelastic_contact)")
     wall_suction: bool = Field(
         True, description="false: a fixed wall cannot pull a fluid particle: in the "
         "correction's pressure gradient a wall particle's pressure is at least the fluid "

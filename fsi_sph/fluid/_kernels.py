@@ -652,18 +652,24 @@ def nearest_source(x, nbr_start, nbr_j, i, j_lo, j_hi, normals):
 
 
 @njit(cache=True, parallel=True)
-def boundary_guard(x, nbr_start, nbr_j, nf, j_lo, j_hi, normals, v_b, gap, v_old, v, out_dv,
-                   out_row):
+def boundary_guard(x, nbr_start, nbr_j, nf, j_lo, j_hi, normals, v_b, gap, dt, v_old, v,
+                   out_dv, out_row, stop=False):
     """Kinematic guard at a boundary (sources ``j_lo <= j < j_hi``: the walls, or the moving
     structures; ``normals`` and boundary velocities ``v_b`` indexed from ``j_lo``).
 
     A fluid particle closer than ``gap`` (along the normal) to its nearest boundary particle
     loses the part of its velocity relative to that particle that points into the boundary
-    (in ``v_old`` and ``v``). A free-surface particle has a Dirichlet PPE row, which imposes
-    no continuity constraint, so nothing else stops a thin jet from sinking into a wall or
-    running into a structure; elsewhere the boundary pressure keeps the particles away and
-    this does nothing. The change of ``v`` and the boundary row go to ``out_dv`` and
-    ``out_row`` (-1: none), so that a moving boundary can get the opposite impulse."""
+    (in ``v_old`` and ``v``). A particle farther out whose step ``dt (v_old + v) / 2`` would
+    end closer than ``gap`` has both normal parts scaled so that it ends at ``gap`` (the
+    step is swept: a particle cannot jump over the guard's band in one long step). A
+    free-surface particle has a Dirichlet PPE row, which imposes no continuity constraint,
+    so nothing else stops a thin jet from sinking into a wall or running into a structure;
+    elsewhere the boundary pressure keeps the particles away and this does nothing. The
+    change of ``v`` and the boundary row go to ``out_dv`` and ``out_row`` (-1: none), so
+    that a moving boundary can get the opposite impulse. For a displacement (the shift)
+    pass it as ``v`` and ``v_old`` alike (copies) with ``dt = 1``. ``stop``: a particle whose
+    step would reach the band loses its whole velocity into the boundary (an inelastic
+    contact within the step) instead of the share that takes it past the band's edge."""
     for i in prange(nf):
         out_dv[i, 0] = 0.0
         out_dv[i, 1] = 0.0
@@ -675,19 +681,26 @@ def boundary_guard(x, nbr_start, nbr_j, nf, j_lo, j_hi, normals, v_b, gap, v_old
         n0 = normals[b, 0]
         n1 = normals[b, 1]
         dn = (x[i, 0] - x[jb, 0]) * n0 + (x[i, 1] - x[jb, 1]) * n1
-        if dn >= gap:
-            continue
         un = (v[i, 0] - v_b[b, 0]) * n0 + (v[i, 1] - v_b[b, 1]) * n1
-        if un < 0.0:
+        un_old = (v_old[i, 0] - v_b[b, 0]) * n0 + (v_old[i, 1] - v_b[b, 1]) * n1
+        if dn >= gap:
+            step = 0.5 * dt * (un + un_old)
+            if dn + step >= gap:
+                continue
+            cut = 1.0 if stop else 1.0 - (gap - dn) / step  # step < gap - dn <= 0
+            un *= cut
+            un_old *= cut
+        else:
+            un = min(un, 0.0)
+            un_old = min(un_old, 0.0)
+        if un != 0.0:
             out_dv[i, 0] = -un * n0
             out_dv[i, 1] = -un * n1
             v[i, 0] -= un * n0
             v[i, 1] -= un * n1
             out_row[i] = b
-        un = (v_old[i, 0] - v_b[b, 0]) * n0 + (v_old[i, 1] - v_b[b, 1]) * n1
-        if un < 0.0:
-            v_old[i, 0] -= un * n0
-            v_old[i, 1] -= un * n1
+        v_old[i, 0] -= un_old * n0
+        v_old[i, 1] -= un_old * n1
 
 
 @njit(cache=True)

@@ -221,12 +221,13 @@ def test_structure_guard_removes_relative_inflow_kernel():
     v_old = v.copy()
     dv = np.zeros((1, 2))
     row = np.zeros(1, dtype=np.int64)
-    K.boundary_guard(x, start, j, 1, 1, len(x), normals, v_b, 0.5 * dx, v_old, v, dv, row)
+    K.boundary_guard(x, start, j, 1, 1, len(x), normals, v_b, 0.5 * dx, 0.0, v_old, v, dv, row)
     assert np.allclose(v, [[1.0, -0.5]]) and np.allclose(v_old, [[1.0, -0.5]])
     assert np.allclose(dv, [[0.0, 1.5]]) and row[0] == 2  # the particle right below
     # moving away from the surface (relative): untouched
     v = np.array([[0.0, -0.4]])
-    K.boundary_guard(x, start, j, 1, 1, len(x), normals, v_b, 0.5 * dx, v.copy(), v, dv, row)
+    K.boundary_guard(x, start, j, 1, 1, len(x), normals, v_b, 0.5 * dx, 0.0, v.copy(), v, dv,
+                     row)
     assert np.allclose(v, [[0.0, -0.4]]) and row[0] == -1
 
 

@@ -244,15 +244,50 @@ def test_wall_guard_removes_only_inward_velocity():
     vb = np.zeros((len(xw), 2))
     dv = np.zeros((nf, 2))
     row = np.zeros(nf, dtype=np.int64)
-    K.boundary_guard(x, s, j, nf, nf, len(x), wn, vb, 0.5, v_old, v, dv, row)
+    K.boundary_guard(x, s, j, nf, nf, len(x), wn, vb, 0.5, 0.0, v_old, v, dv, row)
     # 0.7 above the top wall layer: inside the 0.5 gap? no (0.7 > 0.5) -> untouched
     assert_allclose(v, [[1.0, -2.0], [1.0, 2.0], [1.0, -2.0]])
     x[0, 1] = -0.1  # 0.4 above the wall layer, moving down: loses the normal part
-    K.boundary_guard(x, s, j, nf, nf, len(x), wn, vb, 0.5, v_old, v, dv, row)
+    K.boundary_guard(x, s, j, nf, nf, len(x), wn, vb, 0.5, 0.0, v_old, v, dv, row)
     assert_allclose(v[0], [1.0, 0.0], atol=1e-12)
     assert_allclose(dv[0], [0.0, 2.0], atol=1e-12)
     assert row[0] >= 0
     assert_allclose(v_old[0], [1.0, 0.0], atol=1e-12)
+
+
+def test_guard_sweeps_a_long_step_to_the_gap():
+    """A particle outside the guard's band whose step would end inside it (or past the wall)
+    has its normal velocities scaled so that the step ends on the band's edge; its
+    tangential velocity and a step that ends outside the band are untouched."""
+    xw = lattice(10, 3, origin=(0.0, -3.0))  # top wall layer at y = -0.5
+    x = np.vstack([[[5.0, 0.7], [3.0, 0.7]], xw])  # 1.2 above the wall layer
+    nf = 2
+    vol = np.ones(len(x))
+    ws, wj = find_neighbors(xw, xw, 2 * H, exclude_self=True)
+    wn = np.zeros((len(xw), 2))
+    K.wall_normals(xw, vol[nf:], ws, wj, H, KIND, wn)
+    s, j = nbrs(x, nf)
+    dt = 0.5
+    v_old = np.array([[1.0, -3.0], [1.0, -0.8]])  # step -1.25: through the band; -0.35: not
+    v = np.array([[1.0, -2.0], [1.0, -0.6]])
+    dv, row = np.zeros((nf, 2)), np.zeros(nf, dtype=np.int64)
+    K.boundary_guard(x, s, j, nf, nf, len(x), wn, np.zeros((len(xw), 2)), 0.5, dt, v_old, v,
+                     dv, row)
+    end = x[:nf, 1] + 0.5 * dt * (v_old[:, 1] + v[:, 1])
+    assert_allclose(end[0], -0.5 + 0.5, atol=1e-12)  # on the band's edge
+    assert_allclose(v[0], [1.0, -2.0 * 0.7 / 1.25], atol=1e-12)  # both scaled alike
+    assert_allclose(v_old[0], [1.0, -3.0 * 0.7 / 1.25], atol=1e-12)
+    assert_allclose(dv[0], [0.0, 2.0 - 2.0 * 0.7 / 1.25], atol=1e-12)
+    assert row[0] >= 0
+    assert_allclose(v[1], [1.0, -0.6])
+    assert row[1] == -1
+    # a displacement (the shift) swept with dt = 1: v_old a copy of v
+    dr = np.array([[0.3, -2.0], [0.0, 0.1]])
+    K.boundary_guard(x, s, j, nf, nf, len(x), wn, np.zeros((len(xw), 2)), 0.5, 1.0, dr.copy(),
+                     dr, dv, row)
+    assert_allclose(x[0, 1] + dr[0, 1], 0.0, atol=1e-12)
+    assert_allclose(dr[0, 0], 0.3)
+    assert_allclose(dr[1], [0.0, 0.1])
 
 
 def test_guard_uses_nearest_surface_particle_past_the_surface_layer():
@@ -269,8 +304,8 @@ def test_guard_uses_nearest_surface_particle_past_the_surface_layer():
     s, j = nbrs(x, 1)
     v, v_old = np.array([[0.5, -1.0]]), np.array([[0.5, -1.0]])
     dv, row = np.zeros((1, 2)), np.zeros(1, dtype=np.int64)
-    K.boundary_guard(x, s, j, 1, 1, len(x), wn, np.zeros((len(xw), 2)), 0.5, v_old, v, dv,
-                     row)
+    K.boundary_guard(x, s, j, 1, 1, len(x), wn, np.zeros((len(xw), 2)), 0.5, 0.0, v_old, v,
+                     dv, row)
     assert_allclose(v[0], [0.5, 0.0], atol=1e-12)
     assert np.abs(xw[row[0], 1] + 0.5) < 1e-9  # the surface layer took the reaction
 

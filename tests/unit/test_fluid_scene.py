@@ -111,3 +111,22 @@ def test_last_step_is_not_a_sliver(tmp_path):
     assert dt[:3] == pytest.approx([1e-3] * 3, rel=1e-12)
     assert dt[3:] == pytest.approx([0.55e-3, 0.55e-3], rel=1e-9)
     assert sim.t == pytest.approx(0.0041, rel=1e-12)
+
+
+def _initial_positions(tmp_path, extra):
+    path = tmp_path / "jit.toml"
+    path.write_text(FLUID.replace("[fluid]\n", "[fluid]\n" + extra))
+    return Simulation(load_config(path)).fluid.body["x"].copy()
+
+
+def test_jitter_moves_each_particle_within_its_bound_and_is_seeded(tmp_path):
+    """``fluid.jitter``: every initial particle within jitter * dx of its lattice site per
+    component, the same field for the same seed, another for another seed."""
+    lattice = _initial_positions(tmp_path, "")
+    a = _initial_positions(tmp_path, "jitter = 0.05\njitter_seed = 3\n")
+    b = _initial_positions(tmp_path, "jitter = 0.05\njitter_seed = 3\n")
+    c = _initial_positions(tmp_path, "jitter = 0.05\njitter_seed = 4\n")
+    d = a - lattice
+    assert a.shape == lattice.shape
+    assert abs(d).max() <= 0.05 * 0.05 and abs(d).max() > 0.04 * 0.05
+    assert (a == b).all() and not (a == c).all()

@@ -38,3 +38,21 @@ def test_body_front_ends_where_the_columns_get_thinner_than_the_threshold():
 def test_pile_height_ignores_a_particle_left_on_the_back_wall():
     x = np.vstack([_deposit(), [[0.5 * DX, 0.4]]])  # stuck 0.4 m up the back wall
     assert pile_height(x, DX) == pytest.approx(5.5 * DX)
+
+
+def test_merged_summary_sums_the_realizations_and_keeps_their_throughput():
+    from validation.granular_collapse import _merged_summary
+
+    runs = [{"n_particles": 100, "steps": 10, "wall_time_s": 2.0, "particle_steps_per_s": 1e3},
+            {"n_particles": 100, "steps": 30, "wall_time_s": 5.0, "particle_steps_per_s": 3e3}]
+    m = _merged_summary(runs)
+    assert m["steps"] == 40 and m["wall_time_s"] == 7.0 and m["n_particles"] == 100
+    # loop times 1 s and 1 s: 4000 particle-steps in 2 s
+    assert m["particle_steps_per_s"] == pytest.approx(2e3)
+
+
+def test_realizations_differ_only_in_the_seed():
+    from validation.granular_collapse import JITTER, realization_overrides
+
+    assert realization_overrides(0) != realization_overrides(1)
+    assert f"fluid.jitter={JITTER!r}" in realization_overrides(2)
