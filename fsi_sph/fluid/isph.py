@@ -412,10 +412,9 @@ class IncompressibleFluid:
         before the pressure solve: a particle in the guard's band or reaching it within the
         step loses its whole velocity into the wall (restitution 0), so the projection does
         not stop it with an impulsive pressure ``~ rho u_n dx / dt`` that its neighbours
-        also feel (at a granular
-        front 5-10 kPa against a hydrostatic 0.1-0.2 kPa, which threw the tip particles
-        ahead at 1-1.2 times the free-fall speed from the column's top). No equation in
-        PHYSICS.md: a contact rule for grains."""
+        also feel (at a granular front 5-10 kPa against a hydrostatic 0.1-0.2 kPa, which
+        pushed the tip particles ahead; other kicks at the thin front remain, session notes
+        2026-11-30f). No equation in PHYSICS.md: a contact rule for grains."""
         nf = self.nf
         (wlo, whi, wgap), _ = self._guard_ranges()
         if whi > wlo:

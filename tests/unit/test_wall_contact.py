@@ -4,11 +4,12 @@ velocity into the wall before the pressure solve.
 
 A water block at rest on the floor, one particle of its bottom row driven down at 4 m/s
 (its step reaches the band). With the contact left to the projection (``"projection"``,
-the default) the solve has to take its approach out of the divergence, which pushes its
-neighbours aside (0.22 m/s; the guard then stops it at the band's edge); with the
-inelastic contact its approach is removed before the solve: no kick, the pressure stays
-about hydrostatic. The mechanism that
-threw the front particles of a granular collapse ahead (docs/session_notes_2026-11-30f.md).
+the default) the solve has to take its motion out of the divergence: a suction of
+-8.5 kPa (hydrostatic +0.15 kPa) that pulls its neighbours after it (0.22 m/s; the guard
+then stops it at the band's edge). With the inelastic contact its approach is removed
+before the solve: no kick, the pressure stays about hydrostatic. Such impulsive pressures
+(5-10 kPa at a granular front, hydrostatic 0.1-0.2 kPa) threw front particles of the
+granular collapse ahead (docs/session_notes_2026-11-30f.md).
 """
 
 import numpy as np
