@@ -6,7 +6,8 @@ clumps of free-surface particles at the thin front and particles pulled into the
 Adami's wall pressure were thrown off at 4.6 m/s here (10-27 m/s at the full resolution),
 above the free-fall speed from the top of the column, sqrt(2 g H0) = 2.8 m/s, which no
 particle of a collapsing column should reach (measured with the fixes: 2.14 m/s). Since
-the session of 2026-11-30f the fastest particle of this draw is 3.2 m/s: the bound is kept
+the session of 2026-11-30f the fastest particle of this draw is 2.85 m/s (mirror walls, swept
+guard; 2.1-3.4 m/s across wall rules and contact options): the bound is kept
 as a known failure, and the inviscid front speed 2 sqrt(g H0) = 3.96 m/s is the hard bound.
 """
 
