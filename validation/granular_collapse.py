@@ -158,10 +158,6 @@ def _merged_summary(summaries):
             "particle_steps_per_s": steps * summaries[0]["n_particles"] / loop}
 
 
-def _run_column_job(args):
-    return run_column(*args)
-
-
 def validate(quick, data_dir, out_dir, realizations=None, jobs=None):
     """The five columns, ``realizations`` runs each (default ``REALIZATIONS[quick]``);
     a column's error is that of the mean run-out of its realizations. ``jobs`` runs (default
@@ -177,7 +173,7 @@ def validate(quick, data_dir, out_dir, realizations=None, jobs=None):
         import multiprocessing
 
         with multiprocessing.get_context("spawn").Pool(jobs) as pool:
-            done = pool.map(_run_column_job, tasks[::-1], chunksize=1)[::-1]  # longest first
+            done = pool.starmap(run_column, tasks[::-1], chunksize=1)[::-1]  # longest first
     else:
         done = [run_column(*t) for t in tasks]
     records = []

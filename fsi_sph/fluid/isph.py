@@ -415,13 +415,17 @@ class IncompressibleFluid:
         also feel (at a granular front 5-10 kPa against a hydrostatic 0.1-0.2 kPa, which
         pushed the tip particles ahead; other kicks at the thin front remain, session notes
         2026-11-30f). No equation in PHYSICS.md: a contact rule for grains."""
+        self._shift_scratch[:] = self.v_star  # (free outside the shift's guard)
+        self._guard_walls(dt, self._shift_scratch, self.v_star, stop=True)
+
+    def _guard_walls(self, dt, v_old, v, stop=False):
+        """The kinematic guard at the fixed walls (and their periodic images)."""
         nf = self.nf
         (wlo, whi, wgap), _ = self._guard_ranges()
         if whi > wlo:
-            scratch = self.v_star.copy()
             K.boundary_guard(self.x_all, self.ff_start, self.ff_j, nf, wlo, whi,
-                             self.wall_n[:whi - nf], self.v_b[:whi - nf], wgap, dt, scratch,
-                             self.v_star, self._guard_dv, self._guard_row, True)
+                             self.wall_n[:whi - nf], self.v_b[:whi - nf], wgap, dt, v_old, v,
+                             self._guard_dv, self._guard_row, stop)
 
     def _predict(self, dt):
         if self.incremental and not self.p_known:
@@ -920,11 +924,8 @@ class IncompressibleFluid:
         change goes to the structure particles as ``self.guard_force`` (N/m per structure
         particle), opposite and equal."""
         nf = self.nf
-        (wlo, whi, wgap), (slo, shi, sgap) = self._guard_ranges()
-        if whi > wlo:
-            K.boundary_guard(self.x_all, self.ff_start, self.ff_j, nf, wlo, whi,
-                             self.wall_n[:whi - nf], self.v_b[:whi - nf], wgap, dt, self.v_old,
-                             v, self._guard_dv, self._guard_row)
+        self._guard_walls(dt, self.v_old, v)
+        _, (slo, shi, sgap) = self._guard_ranges()
         if shi > slo:
             K.boundary_guard(self.x_all, self.ff_start, self.ff_j, nf, slo, shi,
                              self.wall_n[slo - nf:], self.v_b[slo - nf:], sgap, dt, self.v_old,
