@@ -102,3 +102,25 @@ def ppe_dense(x, vol, alpha, source, consistent, nf, h, eta2, lap_scale, diag_re
             A[w, j] -= diag_ref * wt
             b[w] += diag_ref * rho * (g @ d) * wt
     return A, b
+
+
+def umbrella_scan(x, candidate, grad_c, h, nrows):
+    """Marrone et al. (2010): the candidate rows whose umbrella region (a 90 deg cone along
+    the outward normal -grad C / |grad C| up to sqrt(2) h, capped by the circle of radius h
+    about x_i + h n) holds no other particle within 2 h; one row at a time, all pairs."""
+    out = np.zeros(nrows, dtype=bool)
+    for i in range(nrows):
+        g = np.linalg.norm(grad_c[i])
+        if not candidate[i] or g == 0.0:
+            continue
+        n = -grad_c[i] / g
+        t = x[i] + h * n
+        d = x - x[i]
+        r = np.linalg.norm(d, axis=1)
+        near = (r > 0.0) & (r < 2.0 * h)
+        e = x - t
+        cap = np.linalg.norm(e, axis=1) < h
+        cone = np.abs(-n[1] * d[:, 0] + n[0] * d[:, 1]) + np.abs(e @ n) < h
+        inside = np.where(r >= np.sqrt(2.0) * h, cap, cone)
+        out[i] = not np.any(inside & near)
+    return out

@@ -75,6 +75,50 @@ def position_divergence(x, vol, nbr_start, nbr_j, h, kind, out_divr, out_grad_c,
         out_grad_c[i, 1] = g1
 
 
+@njit(cache=True, parallel=True)
+def umbrella_scan(x, candidate, grad_c, nbr_start, nbr_j, nf, h, out_flag):
+    """Marrone et al.'s (2010, JCP 229:3652) geometric free-surface test: a candidate row
+    ``i`` whose umbrella-shaped region along its outward normal ``n_i = -grad C_i / |grad
+    C_i|`` holds no neighbour (fluid or boundary) lies on the free surface. With ``T = x_i +
+    h n_i`` and ``d = x_j - x_i`` the region is::
+
+        |d| >= sqrt(2) h  and  |x_j - T| < h,   or
+        |d| <  sqrt(2) h  and  |n_perp . d| + |n . (x_j - T)| < h
+
+    (a 90 deg cone from ``x_i`` along ``n_i`` capped by the circle of radius ``h`` about
+    ``T``). ``out_flag[i]`` is 1 for a candidate with an empty region, 0 otherwise (also
+    for a candidate without a normal). No equation of PHYSICS.md: a published detection
+    rule added to the [F 21] divergence flag (see free_surface.detect)."""
+    r_cone = math.sqrt(2.0) * h
+    for i in prange(nf):
+        out_flag[i] = 0
+        if not candidate[i]:
+            continue
+        g = math.sqrt(grad_c[i, 0] ** 2 + grad_c[i, 1] ** 2)
+        if g <= 0.0:
+            continue
+        n0 = -grad_c[i, 0] / g
+        n1 = -grad_c[i, 1] / g
+        t0 = x[i, 0] + h * n0
+        t1 = x[i, 1] + h * n1
+        empty = True
+        for k in range(nbr_start[i], nbr_start[i + 1]):
+            j = nbr_j[k]
+            d0 = x[j, 0] - x[i, 0]
+            d1 = x[j, 1] - x[i, 1]
+            e0 = x[j, 0] - t0
+            e1 = x[j, 1] - t1
+            if math.sqrt(d0 * d0 + d1 * d1) >= r_cone:
+                inside = e0 * e0 + e1 * e1 < h * h
+            else:
+                inside = abs(-n1 * d0 + n0 * d1) + abs(n0 * e0 + n1 * e1) < h
+            if inside:
+                empty = False
+                break
+        if empty:
+            out_flag[i] = 1
+
+
 @njit(cache=True)
 def correction_matrices(x, vol, nbr_start, nbr_j, h, kind, out_L):
     """Oger's correction [F 13-14] (:func:`fsi_sph.sph.operators.correction_matrices`) with

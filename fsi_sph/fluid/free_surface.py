@@ -14,6 +14,8 @@ from fsi_sph.fluid import _kernels as K
 DIVR_LOW = 1.4
 DIVR_HIGH = 1.6
 CHI = 1.4
+#: rows with ``div r`` below this are scanned by the umbrella test (full support: ~2)
+SCAN_BELOW = 1.95
 
 
 def blend(divr):
@@ -28,14 +30,31 @@ def blend(divr):
 
 
 def detect(x, vol, nbr_start, nbr_j, nf, h, kind, out_divr, out_grad_c, out_sigma, out_alpha,
-           out_class, out_normal):
+           out_class, out_normal, scan=False):
     """Fill the free-surface fields of the fluid rows (arrays of length ``nf``).
 
     ``x, vol`` are the stacked fluid+wall arrays and ``nbr_*`` the fluid rows' neighbour list.
+    A row is on the free surface if ``div r < CHI`` [F 21, Fig. 2]; with ``scan`` also if
+    Marrone et al.'s umbrella region along its normal is empty
+    (:func:`_kernels.umbrella_scan`, rows with ``div r < SCAN_BELOW``), and such a row is a
+    Dirichlet row (``alpha = 0``). The scan catches a particle on the face of a thin front
+    whose ``div r`` is raised by neighbours crowded behind it: as a Poisson row among
+    surface rows it drew an unbounded pressure (docs/session_notes_2026-12-01.md).
+    Returns the number of rows the scan added.
     """
     K.position_divergence(x, vol, nbr_start, nbr_j, h, kind, out_divr, out_grad_c, out_sigma)
     out_alpha[:] = blend(out_divr)
     n_nbr = np.diff(nbr_start)
     is_surface = (out_divr < CHI) & (n_nbr > 0)
+    added = 0
+    if scan:
+        candidate = ~is_surface & (n_nbr > 0) & (out_divr < SCAN_BELOW)
+        flag = np.zeros(nf, dtype=np.int8)
+        K.umbrella_scan(x, candidate, out_grad_c, nbr_start, nbr_j, nf, h, flag)
+        hit = flag.astype(bool)
+        added = int(hit.sum())
+        is_surface |= hit
+        out_alpha[hit] = 0.0
     K.surface_classes(x, is_surface, n_nbr, out_grad_c, nbr_start, nbr_j, nf, h, out_class,
                       out_normal)
+    return added
