@@ -470,10 +470,11 @@ class FluidSection(_Model):
         "at 5 rows, which a frictional (mu(I)) material reads as 10 % less friction "
         "(fsi_sph/fluid/isph.py _surface_pressure)")
     surface_scan: bool = Field(
-        False, description="free-surface detection: besides div r < 1.4 [F 21], a particle "
+        True, description="free-surface detection: besides div r < 1.4 [F 21], a particle "
         "whose umbrella region along its outward normal holds no neighbour (Marrone et al. "
         "2010) is a free-surface (p = 0) particle; catches the face of a thin front whose "
-        "div r is raised by neighbours crowded behind it (fsi_sph/fluid/free_surface.py)")
+        "div r is raised by neighbours crowded behind it, which div r alone left a Poisson "
+        "row and which was thrown off (fsi_sph/fluid/free_surface.py); false = div r only")
     collision: CollisionSection | None = Field(
         None, description="absent: no particle collision model")
     wall_pressure: Literal["adami", "mirror"] = Field(

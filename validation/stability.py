@@ -22,6 +22,7 @@ from validation.common import CASES, log, machine, make_record, run_case
 PLATE = CASES / "oscillating_plate.toml"
 GATE = CASES / "dam_break_elastic_gate.toml"
 SLOPE2 = CASES / "slope_2_cohesive.toml"
+DAM = CASES / "dam_break.toml"
 T_PLATE = 0.254  # s, first-mode period of the plate (thin-plate theory)
 
 
@@ -52,6 +53,16 @@ def tip_bounded(run_file, limit_m, probe="tip"):
     u = float(np.max(np.hypot(c["ux"], c["uy"])))
     return u < limit_m, {"max_tip_displacement_m": u}, f"tip displacement {u:.3g} m " \
         f"(bound {limit_m} m)"
+
+
+def fastest_below(run_file, limit):
+    """Largest fluid particle speed of the 'stats' probe (every step) below ``limit`` (m/s)."""
+    from fsi_sph.output import read_probe
+
+    _, cols = read_probe(run_file, "stats")
+    top = float(np.max(cols["max_speed"]))
+    return (top < limit, {"max_speed_m_s": top},
+            f"fastest particle {top:.3g} m/s (bound {limit:.3g} m/s)")
 
 
 def lattice_quads(X0, dx):
@@ -158,6 +169,13 @@ def rows():
             # the tip can swing through at most twice the gate's free length (0.079 m)
             lambda f: no_penetration(f, tip_bound=0.16),
             quick_overrides=["case.t_end=0.01"]),
+        Row("dam_break_front", DAM,
+            ["case.dx=0.025", "case.output_every=0.2", "case.t_end=0.8"],
+            "dam break to T = 2.5: no particle outruns the inviscid front of the column's "
+            "height, 2 sqrt(2 g a) = 8.86 m/s (a particle thrown at 14 m/s without the "
+            "umbrella scan)",
+            lambda f: fastest_below(f, 2.0 * math.sqrt(2.0 * 9.81 * 1.0)),
+            quick_overrides=["case.t_end=0.55"]),
         Row("slope_high_cohesion", SLOPE2,
             ["soil.clay.material.cohesion=110000.0", "case.t_end=2.0", "case.output_every=0.5"],
             "cohesive slope with 10 x the cohesion (stands; tensile instability)",
