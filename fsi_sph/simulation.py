@@ -88,7 +88,7 @@ class Simulation:
                      "ppe_solve_s", "ppe_rebuilt")
         if self._dt_limit_columns:  # viscosity law / implicit step: every dt limit [F 48]
             cols += ("dt_advective", "dt_viscous_explicit", "dt_force", "nu_max",
-                     "viscous_iterations", "viscous_residual")
+                     "viscous_iterations", "viscous_residual", "viscous_fallback")
         if self.coupling is not None:
             cols += ("power_on_structures", "power_on_fluid")
         return cols
@@ -287,7 +287,7 @@ class Simulation:
                 if self._dt_limit_columns:
                     lim, vs = self.fluid.dt_limits, self.fluid.viscous_stats
                     row += [lim["advective"], lim["viscous"], lim["force"], lim["nu_max"],
-                            vs.iterations, vs.residual]
+                            vs.iterations, vs.residual, float(vs.fallback)]
                 if self.coupling is not None:
                     row += [self.coupling.power_structure, self.coupling.power_fluid]
                 step_rows.append(row)

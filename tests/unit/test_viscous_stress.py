@@ -196,3 +196,71 @@ def test_coupled_solve_matches_the_direct_solve():
     ud, _ = solve_direct(A2, b)
     assert stats.iterations > 0  # the Krylov path, not the fallback
     assert np.abs(u - ud).max() < 1e-6 * np.abs(ud).max()
+
+
+def test_amplification_bound():
+    rhs = np.array([[0.1, -0.3], [0.0, 0.2]])
+    assert not V.amplifies(rhs, rhs)
+    assert not V.amplifies(1.9 * rhs, rhs)
+    assert V.amplifies(np.array([[0.0, 0.0], [0.25, 0.0]]), rhs)  # x: 0.25 > 2 x 0.1
+    assert V.amplifies(np.array([[1e-13, 0.0], [0.0, 0.0]]), np.zeros((2, 2))) is False
+    assert V.amplifies(np.array([[1e-3, 0.0], [0.0, 0.0]]), np.zeros((2, 2)))
+
+
+class _Cluster:
+    """The few attributes of a fluid that viscous._solve_step reads: a perturbed lattice,
+    all fluid (no boundary rows)."""
+
+    def __init__(self, nu):
+        rng = np.random.default_rng(5)
+        self.x_all = lattice(6, 6, DX) + rng.uniform(-0.2, 0.2, (36, 2)) * DX
+        self.nf = 36
+        self.ff_start, self.ff_j, self.vol_all, self.L, self.col_of = _setup(self.x_all, 36)
+        self.nu_all = np.full(36, nu)
+        self.h, self.kernel = H, KIND
+        self.v_all = np.zeros((36, 2))
+        self.v_old = rng.normal(size=(36, 2)) * 0.01
+        self.cfg = type("cfg", (), {"viscous_rtol": 1e-10})()
+
+
+def _morris_matrix(fl, dt):
+    c = np.zeros(len(fl.ff_j))
+    V.pair_coefficients(fl.x_all, fl.vol_all, fl.nu_all, fl.ff_start, fl.ff_j, fl.nf, fl.h,
+                        fl.kernel, (0.1 * H) ** 2, c)
+    rows = np.repeat(np.arange(fl.nf), np.diff(fl.ff_start))
+    C = sp.csr_array((c, (rows, fl.ff_j)), shape=(fl.nf, fl.nf))
+    D = sp.diags_array(np.asarray(C.sum(axis=1)).ravel())
+    return sp.csr_array(sp.identity(fl.nf) + dt * (D - C))
+
+
+def test_stress_step_that_amplifies_falls_back_to_the_morris_step(monkeypatch):
+    """A transposed part that makes the coupled matrix nearly singular (here an
+    anti-dissipative B = (1 - 1e-4) blockdiag(A, A) / dt, standing for the lopsided
+    supports of a few particles on the floor) gives a step thousands of times the
+    right-hand side; the step is then the Morris solve, flagged as a fallback."""
+    fl = _Cluster(nu=0.02)
+    dt = 5e-3
+    A = _morris_matrix(fl, dt)
+    rhs = fl.v_old + np.array([0.0, -9.81 * dt])
+    good, _ = V._solve_step(fl, A, rhs, dt, fl.col_of, None, stress=False)
+    assert np.abs(good).max() <= np.abs(rhs).max() * (1 + 1e-9)  # the Morris max principle
+    bad_B = (1.0 - 1e-4) * sp.csr_array(sp.block_diag([A, A])) / dt
+    monkeypatch.setattr(V, "transpose_operator",
+                        lambda *a, **k: (bad_B, np.zeros((fl.nf, 2))))
+    u, stats = V._solve_step(fl, A, rhs, dt, fl.col_of, None, stress=True)
+    assert stats.fallback
+    assert_allclose(u, good, rtol=1e-8, atol=1e-12)
+
+
+def test_a_regular_stress_step_is_kept():
+    """The real transposed operator on a perturbed lattice at dt nu / dx^2 = 10: no
+    fallback, and the step differs from the Morris one (the transposed part acts)."""
+    fl = _Cluster(nu=0.2)
+    fl.nu_all = 0.2 * (1.0 + 0.5 * fl.x_all[:, 0] / DX)  # a varying viscosity
+    dt = 10.0 * DX * DX / 0.2
+    A = _morris_matrix(fl, dt)
+    rhs = fl.v_old + np.array([0.0, -9.81 * dt])
+    u, stats = V._solve_step(fl, A, rhs, dt, fl.col_of, None, stress=True)
+    morris, _ = V._solve_step(fl, A, rhs, dt, fl.col_of, None, stress=False)
+    assert not stats.fallback
+    assert np.abs(u - morris).max() > 1e-6 * np.abs(morris).max()
