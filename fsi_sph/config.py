@@ -296,8 +296,9 @@ class MuIParameters(_Model):
         "half_spacing", description="`half_spacing`: the law's confining pressure is the ISPH "
         "pressure plus rho |g| dx / 2, the head of the half spacing between the p = 0 "
         "surface-particle centres and the real free surface, added for the law only; `none`: "
-        "the ISPH pressure (use it with fluid.surface_offset = 0.5, which puts that head into "
-        "the pressure field itself, so that the pressure force sees it too)")
+        "the ISPH pressure (use it with fluid.surface_offset = 0.5 and surface_scan = "
+        "false, which puts that head into the pressure field itself, so that the pressure "
+        "force sees it too)")
 
     @model_validator(mode="after")
     def _mu2_gt_mus(self):
@@ -517,6 +518,12 @@ class FluidSection(_Model):
                              "viscosity laws, not to material.viscosity = \"mu_i\"")
         if self.periodic_x is not None and not self.periodic_x[1] > self.periodic_x[0]:
             raise ValueError(f"periodic_x = {list(self.periodic_x)}: need x_max > x_min")
+        if self.surface_offset > 0.0 and self.surface_scan:
+            raise ValueError(
+                f"surface_offset = {self.surface_offset} needs surface_scan = false: the "
+                "umbrella scan makes a waterline particle against a side wall a surface "
+                "particle, whose normal tilts away from the wall, and the offset's pressure "
+                "extrapolated along it made a tank at rest drift (5e-3 m/s in 0.3 s)")
         mu_i = self.material.mu_i
         if (self.surface_offset > 0.0 and mu_i is not None
                 and mu_i.pressure_offset == "half_spacing"):

@@ -28,6 +28,7 @@ gravity = [0.0, -{G}]
 blocks = [{{ origin = [0.0, 0.0], size = [0.2, {H}] }}]
 projection = "{projection}"
 surface_offset = {offset}
+surface_scan = false
 [fluid.material]
 rho0 = {RHO}
 nu = 1.0e-6
@@ -78,6 +79,7 @@ dx = 0.01
 [fluid]
 blocks = [{ origin = [0.0, 0.0], size = [0.1, 0.1] }]
 surface_offset = 0.5
+surface_scan = false
 [fluid.material]
 rho0 = 1500.0
 viscosity = "mu_i"
@@ -106,3 +108,21 @@ def test_surface_pressure_is_the_bounded_extrapolation(factor, expected):
     assert np.allclose(ps[top], expected * 0.5 * RHO * G * DX, rtol=1e-6, atol=1e-9)
     deep = b["x"][:, 1] < H - 4 * DX  # interior rows: no normal, no target
     assert np.all(ps[deep] == 0.0)
+
+
+def test_offset_with_the_scan_is_a_config_error():
+    from fsi_sph.config import ConfigError
+
+    text = f"""
+[case]
+t_end = 0.1
+dx = {DX}
+[fluid]
+blocks = [{{ origin = [0.0, 0.0], size = [0.2, {H}] }}]
+surface_offset = 0.5
+[fluid.material]
+rho0 = {RHO}
+nu = 1.0e-6
+"""
+    with pytest.raises(ConfigError, match="surface_scan = false"):
+        load_config(None, text=text)
