@@ -194,6 +194,8 @@ def validate(quick, data_dir, out_dir, realizations=None, jobs=None):
                   "reference_law": law, "realizations": n_real, "jitter_dx": JITTER}
         values.update(runs[0][2])  # the first realization's diagnostics ...
         values["runout_sim"] = float(r_sims.mean())  # ... but the run-out of the mean
+        # and the viscous fallbacks of all of them
+        values["viscous_fallback_steps"] = sum(v["viscous_fallback_steps"] for _, _, v in runs)
         values.update({"runout_sims": [float(r) for r in r_sims],
                        "runout_min": float(r_sims.min()), "runout_max": float(r_sims.max()),
                        "runout_spread_pct_of_ref": float(100.0 * np.ptp(r_sims) / r_ref),
