@@ -144,7 +144,7 @@ def run_column(a, quick, out_dir, seed):
         "dt_viscous_explicit_median": float(np.median(log["dt_viscous_explicit"])),
         "dt_used_median": float(np.median(log["dt"])),
         "viscous_iterations_mean": float(np.mean(log["viscous_iterations"])),
-        "viscous_fallback_steps": int(np.sum(log.get("viscous_fallback", 0.0))),
+        "viscous_fallback_steps": int(np.sum(log["viscous_fallback"])),
         "t_end_s": sim.t}
     return x, summary, values
 

@@ -86,12 +86,12 @@ def umbrella_scan(x, candidate, grad_c, nbr_start, nbr_j, nf, h, out_flag):
         |d| <  sqrt(2) h  and  |n_perp . d| + |n . (x_j - T)| < h
 
     (a 90 deg cone from ``x_i`` along ``n_i`` capped by the circle of radius ``h`` about
-    ``T``). ``out_flag[i]`` is 1 for a candidate with an empty region, 0 otherwise (also
-    for a candidate without a normal). No equation of PHYSICS.md: a published detection
-    rule added to the [F 21] divergence flag (see free_surface.detect)."""
-    r_cone = math.sqrt(2.0) * h
+    ``T``). ``out_flag[i]`` (bool) is True for a candidate with an empty region, False
+    otherwise (also for a candidate without a normal). No equation of PHYSICS.md: a
+    published detection rule added to the [F 21] divergence flag (free_surface.detect)."""
+    r2_cone = 2.0 * h * h
     for i in prange(nf):
-        out_flag[i] = 0
+        out_flag[i] = False
         if not candidate[i]:
             continue
         g = math.sqrt(grad_c[i, 0] ** 2 + grad_c[i, 1] ** 2)
@@ -108,15 +108,14 @@ def umbrella_scan(x, candidate, grad_c, nbr_start, nbr_j, nf, h, out_flag):
             d1 = x[j, 1] - x[i, 1]
             e0 = x[j, 0] - t0
             e1 = x[j, 1] - t1
-            if math.sqrt(d0 * d0 + d1 * d1) >= r_cone:
+            if d0 * d0 + d1 * d1 >= r2_cone:
                 inside = e0 * e0 + e1 * e1 < h * h
             else:
                 inside = abs(-n1 * d0 + n0 * d1) + abs(n0 * e0 + n1 * e1) < h
             if inside:
                 empty = False
                 break
-        if empty:
-            out_flag[i] = 1
+        out_flag[i] = empty
 
 
 @njit(cache=True)

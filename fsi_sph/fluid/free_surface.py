@@ -49,9 +49,8 @@ def detect(x, vol, nbr_start, nbr_j, nf, h, kind, out_divr, out_grad_c, out_sigm
     added = 0
     if scan:
         candidate = ~is_surface & (n_nbr > 0) & (out_divr < SCAN_BELOW)
-        flag = np.zeros(nf, dtype=np.int8)
-        K.umbrella_scan(x, candidate, out_grad_c, nbr_start, nbr_j, nf, h, flag)
-        hit = flag.astype(bool)
+        hit = np.empty(nf, dtype=np.bool_)
+        K.umbrella_scan(x, candidate, out_grad_c, nbr_start, nbr_j, nf, h, hit)
         added = int(hit.sum())
         is_surface |= hit
         out_alpha[hit] = 0.0

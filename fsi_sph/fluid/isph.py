@@ -343,7 +343,7 @@ class IncompressibleFluid:
     def detect_free_surface(self):
         """``div r``, ``alpha`` [F 21], classes and normals [F 27-28] of the fluid rows."""
         b = self.body
-        self.scan_added = free_surface.detect(
+        free_surface.detect(
             self.x_all, self.vol_all, self.ff_start, self.ff_j, self.nf, self.h, self.kernel,
             b["divr"], b["grad_c"], b["sigma"], b["alpha"], b["class"], b["normal"],
             scan=self.cfg.surface_scan)

@@ -453,11 +453,11 @@ def _solve_step(fluid, A, rhs, dt, col_of, mirror, stress):
                               fluid.ff_start, fluid.ff_j, nf, fluid.h, fluid.kernel, col_of,
                               fluid.v_all, mirror)
     A2 = sp.block_diag([A, A], format="csr") - dt * B
-    r2 = (rhs + dt * e).T.reshape(-1)
+    b = rhs + dt * e
     x0 = fluid.v_old.T.reshape(-1)
-    u, stats = solve_coupled(A, A2, r2, x0, fluid.cfg.viscous_rtol)
+    u, stats = solve_coupled(A, A2, b.T.reshape(-1), x0, fluid.cfg.viscous_rtol)
     u = u.reshape(2, nf).T
-    if amplifies(u, rhs + dt * e):
+    if amplifies(u, b):
         u, stats = solve(A, rhs, fluid.v_old, fluid.cfg.viscous_rtol)
         stats.fallback = True
     return u, stats
