@@ -53,6 +53,19 @@ def _scan_row(i, xd, xs, lo, cell, ncx, ncy, cstart, citems, r2max, exclude_self
     return k
 
 
+@njit(cache=True)
+def _bounds(x, lo, hi):
+    """Smallest and largest coordinates of the points ``x`` (into ``lo``, ``hi``): one pass
+    (numpy's ``min(axis=0)`` on an (n, 2) array costs several times more)."""
+    for k in range(2):
+        lo[k] = x[0, k]
+        hi[k] = x[0, k]
+    for j in range(x.shape[0]):
+        for k in range(2):
+            lo[k] = min(lo[k], x[j, k])
+            hi[k] = max(hi[k], x[j, k])
+
+
 @njit(cache=True, parallel=True)
 def _candidates(xd, lo, cell, ncx, ncy, cstart, out_count):
     """Upper bound of each destination's neighbour count: the sources in its 3 x 3 cells."""
@@ -104,8 +117,11 @@ def find_neighbors(xd, xs, radius, exclude_self=False):
     nd = xd.shape[0]
     if nd == 0 or xs.shape[0] == 0:
         return np.zeros(nd + 1, dtype=np.int64), np.zeros(0, dtype=np.int64)
-    lo = np.minimum(xd.min(axis=0), xs.min(axis=0)) - radius
-    hi = np.maximum(xd.max(axis=0), xs.max(axis=0)) + radius
+    lo_d, hi_d, lo_s, hi_s = (np.empty(2) for _ in range(4))
+    _bounds(xd, lo_d, hi_d)
+    _bounds(xs, lo_s, hi_s)
+    lo = np.minimum(lo_d, lo_s) - radius
+    hi = np.maximum(hi_d, hi_s) + radius
     ncx = max(int((hi[0] - lo[0]) / radius) + 1, 1)
     ncy = max(int((hi[1] - lo[1]) / radius) + 1, 1)
     cstart, citems = _build_cells(xs, lo, radius, ncx, ncy)

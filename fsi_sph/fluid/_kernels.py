@@ -760,3 +760,28 @@ def shepard_at(points, x, p, nbr_start, nbr_j, h, kind, out):
             sw += w
             sp += w * p[j]
         out[i] = sp / sw if sw > 0.0 else np.nan
+
+
+@njit(cache=True)
+def fluid_sublists(nbr_start, nbr_j, fluid_of, rows, out_start):
+    """The pair lists restricted to the rows with ``rows[i]`` true and to fluid neighbours
+    (``fluid_of[j] >= 0``); other rows get empty lists. Returns the new ``nbr_j`` (same
+    order); ``out_start`` (n + 1) is filled."""
+    n = out_start.shape[0] - 1
+    out_start[0] = 0
+    for i in range(n):
+        k = 0
+        if rows[i]:
+            for s in range(nbr_start[i], nbr_start[i + 1]):
+                if fluid_of[nbr_j[s]] >= 0:
+                    k += 1
+        out_start[i + 1] = out_start[i] + k
+    out_j = np.empty(out_start[n], dtype=np.int64)
+    for i in range(n):
+        if rows[i]:
+            k = out_start[i]
+            for s in range(nbr_start[i], nbr_start[i + 1]):
+                if fluid_of[nbr_j[s]] >= 0:
+                    out_j[k] = nbr_j[s]
+                    k += 1
+    return out_j

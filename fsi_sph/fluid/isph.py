@@ -728,13 +728,12 @@ class IncompressibleFluid:
         """Corrected gradient [F 7, F 13] of the last pressure at the fluid rows over their
         fluid neighbours only (periodic fluid images included), with its own correction
         matrices: the fluid's pressure gradient without the walls' extrapolated pressures
-        (a lone particle: 0)."""
+        (a lone particle: 0). Computed only on the rows beside a fixed wall (the others get
+        0: nothing reads them)."""
         nf = self.nf
-        keep = self.fluid_of[self.ff_j] >= 0
-        rows = np.repeat(np.arange(nf), np.diff(self.ff_start))
-        start = np.zeros(nf + 1, dtype=np.int64)
-        np.cumsum(np.bincount(rows[keep], minlength=nf), out=start[1:])
-        j = np.ascontiguousarray(self.ff_j[keep])
+        start = np.empty(nf + 1, dtype=np.int64)
+        j = K.fluid_sublists(self.ff_start, self.ff_j, self.fluid_of, self._rows_beside_walls(),
+                             start)
         L = np.empty((nf, 2, 2))
         K.correction_matrices(self.x_all, self.vol_all, start, j, self.h, self.kernel, L)
         gp = np.empty((nf, 2))
@@ -742,6 +741,14 @@ class IncompressibleFluid:
                                       self.h, self.kernel, len(self.x_all), self.no_rows,
                                       self.no_rg, gp)
         return gp
+
+    def _rows_beside_walls(self):
+        """The fluid rows that are neighbours of a fixed wall particle: the only rows whose
+        fluid-only gradient the walls' Shepard average reads (:meth:`_wall_body_force`)."""
+        near = np.zeros(self.nf, dtype=bool)
+        src = self.fluid_of[self.wf_j[:self.wf_start[self.n_walls]]]
+        near[src[src >= 0]] = True
+        return near
 
     def _cut_tension(self, p):
         """``max(p, 0)`` for a cohesionless material (``fluid.tension_cutoff``): the fluid,

@@ -435,3 +435,18 @@ def test_wall_floor_pushes_a_particle_off_the_wall_and_keeps_hydrostatics():
     K.corrected_pressure_gradient(x, ph, vol, L, s, j, nf, H, KIND, n, np.zeros(n, bool), np.zeros((len(x), 2)), g0)
     K.corrected_pressure_gradient(x, ph, vol, L, s, j, nf, H, KIND, n, np.arange(n) >= nf, np.tile(rg, (n, 1)), g1)
     assert_allclose(g1, g0, rtol=1e-12, atol=1e-9)
+
+
+def test_fluid_sublists_keep_the_chosen_rows_fluid_neighbours_in_order(perturbed):
+    x = perturbed
+    s, j = nbrs(x)
+    rng = np.random.default_rng(3)
+    fluid_of = np.where(rng.random(len(x)) < 0.7, np.arange(len(x)), -1)
+    rows = rng.random(len(x)) < 0.4
+    start = np.empty(len(x) + 1, dtype=np.int64)
+    out = K.fluid_sublists(s, j, fluid_of, rows, start)
+    for i in range(len(x)):
+        seg = j[s[i]:s[i + 1]]
+        want = seg[fluid_of[seg] >= 0] if rows[i] else seg[:0]
+        assert np.array_equal(out[start[i]:start[i + 1]], want)
+    assert start[-1] == len(out)
