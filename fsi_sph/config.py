@@ -476,6 +476,12 @@ class FluidSection(_Model):
         "2010) is a free-surface (p = 0) particle; catches the face of a thin front whose "
         "div r is raised by neighbours crowded behind it, which div r alone left a Poisson "
         "row and which was thrown off (fsi_sph/fluid/free_surface.py); false = div r only")
+    surface_isolated_rows: bool = Field(
+        True, description="free-surface detection: a particle whose fluid neighbours are all "
+        "free-surface particles is a free-surface (p = 0) particle too; as a Poisson row "
+        "supported only by surface rows and by walls that extrapolate their pressure from it, "
+        "it built up tens of kPa in a few steps at a granular front and was thrown "
+        "(fsi_sph/fluid/free_surface.py); false = off")
     collision: CollisionSection | None = Field(
         None, description="absent: no particle collision model")
     wall_pressure: Literal["adami", "mirror"] = Field(

@@ -785,3 +785,21 @@ def fluid_sublists(nbr_start, nbr_j, fluid_of, rows, out_start):
                     out_j[k] = nbr_j[s]
                     k += 1
     return out_j
+
+
+@njit(cache=True)
+def isolated_rows(is_surface, n_nbr, nbr_start, nbr_j, nf, out):
+    """``out[i]``: row ``i`` is not a surface row, has neighbours, and every one of its fluid
+    neighbours (``j < nf``; walls and periodic images are not looked at) is a surface row:
+    a Poisson row with no Poisson row beside it (:func:`free_surface.detect`)."""
+    for i in range(nf):
+        out[i] = False
+        if is_surface[i] or n_nbr[i] == 0:
+            continue
+        alone = True
+        for k in range(nbr_start[i], nbr_start[i + 1]):
+            j = nbr_j[k]
+            if j < nf and not is_surface[j]:
+                alone = False
+                break
+        out[i] = alone

@@ -30,7 +30,7 @@ def blend(divr):
 
 
 def detect(x, vol, nbr_start, nbr_j, nf, h, kind, out_divr, out_grad_c, out_sigma, out_alpha,
-           out_class, out_normal, scan=False):
+           out_class, out_normal, scan=False, isolated=False):
     """Fill the free-surface fields of the fluid rows (arrays of length ``nf``).
 
     ``x, vol`` are the stacked fluid+wall arrays and ``nbr_*`` the fluid rows' neighbour list.
@@ -40,7 +40,11 @@ def detect(x, vol, nbr_start, nbr_j, nf, h, kind, out_divr, out_grad_c, out_sigm
     Dirichlet row (``alpha = 0``). The scan catches a particle on the face of a thin front
     whose ``div r`` is raised by neighbours crowded behind it: as a Poisson row among
     surface rows it drew an unbounded pressure (docs/session_notes_2026-12-01.md).
-    Returns the number of rows the scan added.
+    With ``isolated`` a row whose fluid neighbours (``j < nf``) are all surface rows is
+    a surface (Dirichlet) row too (:func:`_kernels.isolated_rows`): its Poisson row had
+    no support but surface rows and walls that extrapolate their pressure from it, and its
+    pressure ran away (30 -> 72 kPa per step at a granular front, hydrostatic there a few
+    hundred Pa; docs/session_notes_2026-12-01b.md). Returns the number of rows the scan added.
     """
     K.position_divergence(x, vol, nbr_start, nbr_j, h, kind, out_divr, out_grad_c, out_sigma)
     out_alpha[:] = blend(out_divr)
@@ -54,6 +58,11 @@ def detect(x, vol, nbr_start, nbr_j, nf, h, kind, out_divr, out_grad_c, out_sigm
         added = int(hit.sum())
         is_surface |= hit
         out_alpha[hit] = 0.0
+    if isolated:
+        alone = np.empty(nf, dtype=np.bool_)
+        K.isolated_rows(is_surface, n_nbr, nbr_start, nbr_j, nf, alone)
+        is_surface |= alone
+        out_alpha[alone] = 0.0
     K.surface_classes(x, is_surface, n_nbr, out_grad_c, nbr_start, nbr_j, nf, h, out_class,
                       out_normal)
     return added

@@ -206,6 +206,7 @@ class IncompressibleFluid:
 
             self.viscosity_law = ViscosityLaw(cfg, dx, gravity)
             self.viscous_stats = ViscousStats()
+            self.morris_pre = None  # the implicit stress step's AMG hierarchy (viscous.py)
         self.dt_limits = {}
         self.periodic = None
         if cfg.periodic_x is not None:
@@ -346,7 +347,7 @@ class IncompressibleFluid:
         free_surface.detect(
             self.x_all, self.vol_all, self.ff_start, self.ff_j, self.nf, self.h, self.kernel,
             b["divr"], b["grad_c"], b["sigma"], b["alpha"], b["class"], b["normal"],
-            scan=self.cfg.surface_scan)
+            scan=self.cfg.surface_scan, isolated=self.cfg.surface_isolated_rows)
 
     def _correction_matrices(self):
         """``self.L`` [F 13-14] at the current stacked positions, computed once per set of

@@ -167,6 +167,8 @@ def test_transpose_matrix_equals_the_kernel(with_mirror):
         mirror = (S, target)
         v[nf:] = target - S @ v[:nf]
     B, e = V.transpose_operator(x, vol, nu[:nf], L, start, j, nf, H, KIND, col_of, v, mirror)
+    assert_allclose(B.tocsr() @ v[:nf].T.reshape(-1), B @ v[:nf].T.reshape(-1), rtol=1e-12,
+                    atol=1e-12)
     U = v[:nf].T.reshape(-1)
     got = (B @ U).reshape(2, nf).T + e
     assert_allclose(got, _kernel_term(x, v, vol, nu, L, start, j, nf, col_of), rtol=1e-10,
@@ -264,3 +266,16 @@ def test_a_regular_stress_step_is_kept():
     morris, _ = V._solve_step(fl, A, rhs, dt, fl.col_of, None, stress=False)
     assert not stats.fallback
     assert np.abs(u - morris).max() > 1e-6 * np.abs(morris).max()
+
+
+def test_coupled_matrix_product_equals_the_assembled_matrix():
+    """CoupledMatrix (blockdiag(A, A) - dt B as products) against its assembled form."""
+    fl = _Cluster(nu=0.2)
+    dt = 1e-3
+    A = _morris_matrix(fl, dt)
+    B, _ = V.transpose_operator(fl.x_all, fl.vol_all, fl.nu_all, fl.L, fl.ff_start, fl.ff_j,
+                                fl.nf, fl.h, fl.kernel, fl.col_of, fl.v_all)
+    M = V.CoupledMatrix(A, B, dt)
+    U = np.random.default_rng(2).normal(size=2 * fl.nf)
+    assert_allclose(M @ U, M.tocsr() @ U, rtol=1e-12, atol=1e-12)
+    assert M.tocsr().shape == (2 * fl.nf, 2 * fl.nf)
