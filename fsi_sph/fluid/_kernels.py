@@ -788,13 +788,13 @@ def fluid_sublists(nbr_start, nbr_j, fluid_of, rows, out_start):
 
 
 @njit(cache=True)
-def isolated_rows(is_surface, n_nbr, nbr_start, nbr_j, nf, out):
+def isolated_rows(is_surface, nbr_start, nbr_j, nf, out):
     """``out[i]``: row ``i`` is not a surface row, has neighbours, and every one of its fluid
     neighbours (``j < nf``; walls and periodic images are not looked at) is a surface row:
     a Poisson row with no Poisson row beside it (:func:`free_surface.detect`)."""
     for i in range(nf):
         out[i] = False
-        if is_surface[i] or n_nbr[i] == 0:
+        if is_surface[i] or nbr_start[i + 1] == nbr_start[i]:
             continue
         alone = True
         for k in range(nbr_start[i], nbr_start[i + 1]):

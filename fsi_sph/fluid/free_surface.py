@@ -60,7 +60,7 @@ def detect(x, vol, nbr_start, nbr_j, nf, h, kind, out_divr, out_grad_c, out_sigm
         out_alpha[hit] = 0.0
     if isolated:
         alone = np.empty(nf, dtype=np.bool_)
-        K.isolated_rows(is_surface, n_nbr, nbr_start, nbr_j, nf, alone)
+        K.isolated_rows(is_surface, nbr_start, nbr_j, nf, alone)
         is_surface |= alone
         out_alpha[alone] = 0.0
     K.surface_classes(x, is_surface, n_nbr, out_grad_c, nbr_start, nbr_j, nf, h, out_class,

@@ -175,13 +175,11 @@ def transpose_stress_divergence(x, vol, tau, fstart, fj, col_of, Lf, nf, h, kind
 
 def fluid_lists(nbr_start, nbr_j, col_of):
     """The fluid-only part of a fluid rows' CSR list (sources with ``col_of >= 0``: fluid
-    particles and their periodic images)."""
+    particles and their periodic images), :func:`_kernels.fluid_sublists` on every row."""
     nf = len(nbr_start) - 1
-    keep = col_of[nbr_j] >= 0
-    rows = np.repeat(np.arange(nf), np.diff(nbr_start))
-    start = np.zeros(nf + 1, dtype=np.int64)
-    np.cumsum(np.bincount(rows[keep], minlength=nf), out=start[1:])
-    return start, np.ascontiguousarray(nbr_j[keep])
+    start = np.empty(nf + 1, dtype=np.int64)
+    j = K.fluid_sublists(nbr_start, nbr_j, col_of, np.ones(nf, dtype=np.bool_), start)
+    return start, j
 
 
 def transpose_operator(x, vol, nu, L, nbr_start, nbr_j, nf, h, kind, col_of, v, mirror=None):
@@ -480,7 +478,7 @@ def _solve_step(fluid, A, rhs, dt, col_of, mirror, stress):
                               fluid.v_all, mirror)
     b = rhs + dt * e
     x0 = fluid.v_old.T.reshape(-1)
-    if getattr(fluid, "morris_pre", None) is None:
+    if fluid.morris_pre is None:
         fluid.morris_pre = MorrisPreconditioner()
     u, stats = solve_coupled(A, CoupledMatrix(A, B, dt), b.T.reshape(-1), x0,
                              fluid.cfg.viscous_rtol, fluid.morris_pre)
@@ -601,7 +599,6 @@ class MorrisPreconditioner:
         self.age = 0
         self.base = None
         self.stale = False
-        self.rebuilds = 0
 
     def prepare(self, A):
         """The V-cycle for this step's Morris matrix ``A``."""
@@ -612,7 +609,6 @@ class MorrisPreconditioner:
                                   symmetry="nonsymmetric", max_coarse=50)
             self.vc = amg.VCycle(ml)
             self.age, self.base, self.stale = 0, None, False
-            self.rebuilds += 1
         else:
             self.vc.refresh_finest(A)
             self.age += 1

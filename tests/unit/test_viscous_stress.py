@@ -223,6 +223,7 @@ class _Cluster:
         self.v_all = np.zeros((36, 2))
         self.v_old = rng.normal(size=(36, 2)) * 0.01
         self.cfg = type("cfg", (), {"viscous_rtol": 1e-10})()
+        self.morris_pre = None
 
 
 def _morris_matrix(fl, dt):
