@@ -504,7 +504,10 @@ class FluidSection(_Model):
         "particle's own, carried hydrostatically to it (at a granular front Adami's wall "
         "pressure fell below that of a particle pressed against the floor, which was then "
         "pushed into it and its pressure grew 2.5-fold per step; fsi_sph/fluid/_kernels.py "
-        "wall_floor)")
+        "wall_floor). The floor acts on free-surface and near-surface particles only: "
+        "beside interior particles it only rectified the pressure's particle-scale noise "
+        "into a push off the wall that lifted a thin flowing layer (fsi_sph/fluid/isph.py "
+        "_floor_rows)")
     tension_cutoff: bool = Field(
         False, description="cohesionless material: negative pressures are set to 0 after "
         "every pressure solve, and the correction uses the cut-off field, so a region in "

@@ -116,3 +116,44 @@ def test_row_roles_follow_periodic_images():
     assert np.array_equal(wall[rows], src >= f.nf)
     assert np.array_equal(fluid_of[:f.nf], np.arange(f.nf))
     assert wall[f.nf:f.nf + f.n_walls].all() and not wall[:f.nf].any()
+
+
+def test_wall_floor_acts_on_non_interior_rows_only():
+    """``fluid.wall_suction = false``: the floor (_kernels.wall_floor) changes the pressure
+    gradient of the free-surface and near-surface rows, never that of an interior row
+    (isph.py ``_floor_rows``: beside interior rows a pairwise floor only rectified the
+    pressure's particle-scale noise into a push off the wall). A noisy pressure on a layer
+    at rest on a floor: interior rows get the gradient without the floor, the others the
+    floored one, and the floor does change some of those."""
+    text = """
+[case]
+t_end = 1.0
+dx = 0.002
+gravity = [0.0, -9.81]
+[fluid]
+blocks = [{ origin = [0.0, 0.0], size = [0.04, 0.012] }]
+wall_suction = false
+[fluid.material]
+rho0 = 1000.0
+nu = 1.0e-6
+[walls]
+tanks = [{ origin = [0.0, 0.0], size = [0.04, 0.03] }]
+"""
+    sim = Simulation(load_config(None, text=text))
+    f = sim.fluid
+    f.update_neighbors()
+    f.detect_free_surface()
+    f._correction_matrices()
+    nf = f.nf
+    rng = np.random.default_rng(5)
+    p = 1000.0 * 9.81 * (0.012 - f.x_all[:, 1]) + rng.normal(scale=20.0, size=len(f.x_all))
+    got = f._pressure_gradient(p, np.empty((nf, 2)), floor="increment")
+    plain = f._gradient_kernel(p, f.nf + f.nw - f.ns, f.no_rows, f.no_rg, np.empty((nf, 2)))
+    floored = f._gradient_kernel(p, f.nf + f.nw - f.ns, f.wall_rows, f.no_rg, np.empty((nf, 2)))
+    interior = f.body["class"] == 0
+    beside_walls = f._rows_beside_walls()
+    assert (interior & beside_walls).sum() > 10 and (~interior & beside_walls).sum() > 4
+    assert np.array_equal(got[interior], plain[interior])
+    assert np.array_equal(got[~interior], floored[~interior])
+    assert not np.allclose(floored[interior & beside_walls], plain[interior & beside_walls])
+    assert not np.allclose(floored[~interior & beside_walls], plain[~interior & beside_walls])
