@@ -570,8 +570,9 @@ class IncompressibleFluid:
         lifted the bed row of a periodic granular layer 5 particles thick (Bagnold case,
         H/dx = 5) from 0.50 to 0.63-0.81 dx, the layer dilated and ran away (profile error
         28 % averaged over 1.5-3 s, 68 % at 3 s; with the floor on non-interior rows only:
-        6.4 % and 8.2 %, the bed row at 0.54 dx, as with no floor at all;
-        docs/session_notes_2026-12-01c.md)."""
+        6.4 % and 8.2 %, the bed row at 0.54 dx, as with no floor at all; over three
+        draws 28.8 -> 9.6 %, with a slower degradation after 2.6 s left in jittered draws
+        that no floor at all shows too; docs/session_notes_2026-12-01c.md)."""
         return self.body["class"] != K.INTERIOR
 
     def _set_row_roles(self):
