@@ -423,6 +423,14 @@ class FluidSection(_Model):
         "compression", description="which interior density errors the relaxation term acts "
         "on: `compression` (sigma > sigma0 only, Asai et al.) or `both` (also an expansion, "
         "sigma < sigma0, so that a sheared layer does not dilate)")
+    relaxation_gap_rows: bool = Field(
+        False, description="with density_relaxation_sign = `both`: the expansion is also "
+        "pulled back on interior particles whose support is nearly full (div r >= 1.8, "
+        "not only >= 1.95) and that have at least half a full support of fluid neighbours: "
+        "a bed row lifted off the floor, which the layer otherwise lets dilate (thin "
+        "granular layers 4-5 particles thick hold their profile: 39 -> 8 %), but at a "
+        "granular front one of 19 draws threw a particle (4.7 m/s, above the inviscid "
+        "front); off by default, measured in docs/session_notes_2026-12-01c.md")
     cfl: Annotated[float, Field(gt=0.0, le=0.5)] = Field(
         0.2, description="advective limit dt = cfl h / |u|max [F 48]")
     dt_max: Positive = Field(1.0, description="upper bound on the fluid time step (s)")
