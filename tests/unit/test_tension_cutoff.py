@@ -157,3 +157,50 @@ tanks = [{ origin = [0.0, 0.0], size = [0.04, 0.03] }]
     assert np.array_equal(got[~interior], floored[~interior])
     assert not np.allclose(floored[interior & beside_walls], plain[interior & beside_walls])
     assert not np.allclose(floored[~interior & beside_walls], plain[~interior & beside_walls])
+
+
+@pytest.mark.parametrize("gap_rows", [False, True])
+def test_relaxation_gap_rows_pull_back_a_lifted_bed_row(gap_rows):
+    """``fluid.relaxation_gap_rows`` (isph.py ``_truncated_for_relaxation``): a layer whose
+    rows stand 0.2 dx too high above the floor (its bed row lifted, div r below DIVR_FULL):
+    off, the expansion of those rows is not relaxed (their support counts as truncated);
+    on, the interior rows with div r >= DIVR_GAP and at least half a support of fluid
+    neighbours are relaxed; a lone particle on the floor (few fluid neighbours) never."""
+    from fsi_sph.fluid import isph
+
+    text = f"""
+[case]
+t_end = 1.0
+dx = 0.002
+gravity = [0.0, -9.81]
+[fluid]
+blocks = [{{ origin = [0.0, 0.0004], size = [0.04, 0.012] }}, {{ origin = [0.07, 0.0], size = [0.002, 0.002] }}]
+density_relaxation = 0.05
+density_relaxation_sign = "both"
+relaxation_gap_rows = {str(gap_rows).lower()}
+[fluid.material]
+rho0 = 1000.0
+nu = 1.0e-6
+[walls]
+boxes = [{{ origin = [-0.01, -0.006], size = [0.1, 0.006] }}]
+"""
+    sim = Simulation(load_config(None, text=text))
+    f = sim.fluid
+    f.update_neighbors()
+    f.detect_free_surface()
+    b = f.body
+    x = b["x"]
+    bed = (x[:, 1] < 0.002) & (x[:, 0] > 0.008) & (x[:, 0] < 0.032)  # away from the ends
+    lone = x[:, 0] > 0.06
+    assert bed.sum() >= 10 and lone.sum() == 1
+    assert np.all((b["divr"][bed] < isph.DIVR_FULL) & (b["divr"][bed] >= isph.DIVR_GAP))
+    assert np.all(b["class"][bed] == 0)
+    truncated = f._truncated_for_relaxation()
+    assert truncated[lone].all()
+    assert truncated[bed].all() != gap_rows
+    # the relaxation source of a uniformly dilated packing: the bed rows pull back only with
+    # the option, the lone particle never (not interior: a surface particle)
+    b["sigma"][:] = 0.97 * f.sigma0
+    src = f._relaxation_source(1e-3)
+    assert np.all(src[bed] < 0.0) == gap_rows and np.all(src[bed] == 0.0) != gap_rows
+    assert src[lone].max() == 0.0
