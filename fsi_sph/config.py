@@ -430,7 +430,7 @@ class FluidSection(_Model):
         "a bed row lifted off the floor, which the layer otherwise lets dilate (thin "
         "granular layers 4-5 particles thick hold their profile: 39 -> 8 %), but at a "
         "granular front one of 19 draws threw a particle (4.7 m/s, above the inviscid "
-        "front); off by default, measured in docs/session_notes_2026-12-01c.md")
+        "front); set by the mu(I) cases, measured in docs/session_notes_2026-12-01c.md")
     cfl: Annotated[float, Field(gt=0.0, le=0.5)] = Field(
         0.2, description="advective limit dt = cfl h / |u|max [F 48]")
     dt_max: Positive = Field(1.0, description="upper bound on the fluid time step (s)")

@@ -819,7 +819,7 @@ class IncompressibleFluid:
         bed row of a sheared layer lifted off the floor: ``div r`` falls below
         ``DIVR_FULL`` and nothing pulled it back; a row at a free surface or at a thin front
         has fewer fluid neighbours). A rule with no equation in PHYSICS.md; measured in
-        docs/session_notes_2026-12-01c.md, not used by the cases."""
+        docs/session_notes_2026-12-01c.md; the mu(I) cases set it."""
         b = self.body
         truncated = b["divr"] < DIVR_FULL
         if self.cfg.relaxation_gap_rows:

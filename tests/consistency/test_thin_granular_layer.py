@@ -51,16 +51,18 @@ def _late_history(n_rows, extra=()):
 
 
 def test_thin_layer_keeps_its_bed_row_and_profile():
+    """The case's settings (with relaxation_gap_rows: 8.8 % late mean, bed row 0.53 dx;
+    without it 6.4 %, 0.54 dx; with the floor on every row 28 %, 0.63 dx)."""
     errors, beds = _late_history(5)
-    assert np.mean(errors) < 0.10  # 6.4 % (28 % with the floor on every row)
-    assert max(errors) < 0.20  # 11 % (81 %)
-    assert np.mean(beds) < 0.58  # bed row at 0.54 dx (0.63); 0.50 on the lattice
+    assert np.mean(errors) < 0.12
+    assert max(errors) < 0.20  # (81 % with the floor on every row)
+    assert np.mean(beds) < 0.58  # 0.50 on the lattice
 
 
 def test_gap_rows_hold_a_layer_four_particles_thick():
-    """``fluid.relaxation_gap_rows`` (off in the cases): at H/dx = 4 the layer's bed row
+    """``fluid.relaxation_gap_rows`` (the case sets it): at H/dx = 4 the layer's bed row
     rises to 0.72 dx and the profile error to 39 % (late mean) without it; with it 0.60 dx
     and 8.3 % (docs/session_notes_2026-12-01c.md)."""
-    errors, beds = _late_history(4, ["fluid.relaxation_gap_rows=true"])
+    errors, beds = _late_history(4)
     assert np.mean(errors) < 0.12
     assert np.mean(beds) < 0.65
