@@ -479,12 +479,13 @@ def wall_floor(p_w, p_i, r0, r1, rg0, rg1):
 
 @njit(cache=True, parallel=True)
 def pressure_gradient(x, p, vol, nbr_start, nbr_j, nf, h, kind, grad_scale, jmax, floored,
-                      rg, out_grad):
+                      floor_row, rg, out_grad):
     """Conservative pressure gradient [F 8, F 10]
     ``grad p_i = grad_scale sum_j V_j (p_i + p_j) grad W_ij``: the pair force
     ``-V_i V_j (p_i + p_j) grad W_ij`` is antisymmetric, so momentum is conserved.
     Sources ``j >= jmax`` (structure particles) are left to the coupling's pair force;
-    sources with ``floored[j]`` as in :func:`corrected_pressure_gradient`."""
+    sources with ``floored[j]`` on rows with ``floor_row[i]`` as in
+    :func:`corrected_pressure_gradient`."""
     for i in prange(nf):
         s0 = 0.0
         s1 = 0.0
@@ -498,7 +499,7 @@ def pressure_gradient(x, p, vol, nbr_start, nbr_j, nf, h, kind, grad_scale, jmax
             if r < 1e-12 * h:
                 continue
             pj = p[j]
-            if floored[j]:
+            if floored[j] and floor_row[i]:
                 pj = wall_floor(pj, p[i], -d0, -d1, rg[j, 0], rg[j, 1])
             f = vol[j] * (p[i] + pj) * kernel_dw(kind, r, h) / r
             s0 += f * d0
@@ -509,15 +510,16 @@ def pressure_gradient(x, p, vol, nbr_start, nbr_j, nf, h, kind, grad_scale, jmax
 
 @njit(cache=True, parallel=True)
 def corrected_pressure_gradient(x, p, vol, L, nbr_start, nbr_j, nf, h, kind, jmax, floored,
-                                rg, out_grad):
+                                floor_row, rg, out_grad):
     """Consistent, corrected pressure gradient [F 7, F 13-14]
     ``grad p_i = sum_j V_j (p_j - p_i) L_i grad W_ij``: exact for linear ``p`` also where the
     support is truncated (free surface), but the pair forces are not antisymmetric.
     Sources ``j >= jmax`` (structure particles) are left to the coupling's pair force.
-    Sources with ``floored[j]`` (walls that cannot pull, :func:`wall_floor`) enter with
-    ``max(p_j, p_i + rho g_j . (x_j - x_i))`` (``rg[j] = rho g_j``, the body force of
-    wall row ``j``'s pressure extrapolation); ``floored`` and ``rg`` have one entry per
-    stacked row (``floored`` all False: no floor)."""
+    Sources with ``floored[j]`` (walls that cannot pull, :func:`wall_floor`) enter the rows
+    with ``floor_row[i]`` as ``max(p_j, p_i + rho g_j . (x_j - x_i))`` (``rg[j] = rho g_j``,
+    the body force of wall row ``j``'s pressure extrapolation); ``floored`` and ``rg`` have
+    one entry per stacked row, ``floor_row`` one per fluid row (``floored`` all False: no
+    floor)."""
     for i in prange(nf):
         s0 = 0.0
         s1 = 0.0
@@ -531,7 +533,7 @@ def corrected_pressure_gradient(x, p, vol, L, nbr_start, nbr_j, nf, h, kind, jma
             if r < 1e-12 * h:
                 continue
             pj = p[j]
-            if floored[j]:
+            if floored[j] and floor_row[i]:
                 pj = wall_floor(pj, p[i], -d0, -d1, rg[j, 0], rg[j, 1])
             f = vol[j] * (pj - p[i]) * kernel_dw(kind, r, h) / r
             s0 += f * d0

@@ -537,23 +537,18 @@ class IncompressibleFluid:
                 if self.cfg.wall_pressure == "mirror":
                     rg[self.nf:self.nf + self.n_walls] = (
                         self.rho * self._wall_body_force()[:self.n_walls])
-        self._gradient_kernel(p, jmax, floored, rg, out)
-        if floored is not self.no_rows:
-            interior = ~self._floor_rows()
-            if interior.any():  # (one more pass, only in the cases without suction)
-                plain = self._gradient_kernel(p, jmax, self.no_rows, self.no_rg,
-                                              np.empty_like(out))
-                out[interior] = plain[interior]
-        return out
+        rows = self._floor_rows() if floored is not self.no_rows else self.no_rows
+        return self._gradient_kernel(p, jmax, floored, rows, rg, out)
 
-    def _gradient_kernel(self, p, jmax, floored, rg, out):
+    def _gradient_kernel(self, p, jmax, floored, floor_row, rg, out):
         if self.cfg.pressure_gradient == "conservative":
             K.pressure_gradient(self.x_all, p, self.vol_all, self.ff_start, self.ff_j, self.nf,
-                                self.h, self.kernel, self.grad_scale, jmax, floored, rg, out)
+                                self.h, self.kernel, self.grad_scale, jmax, floored, floor_row,
+                                rg, out)
         else:
             K.corrected_pressure_gradient(self.x_all, p, self.vol_all, self.L, self.ff_start,
                                           self.ff_j, self.nf, self.h, self.kernel, jmax, floored,
-                                          rg, out)
+                                          floor_row, rg, out)
         return out
 
     def _floor_rows(self):
@@ -590,6 +585,7 @@ class IncompressibleFluid:
             rows, src = self.periodic.rows, self.periodic.src
             self.fluid_of[rows] = np.where(src < self.nf, src, -1)
             self.wall_rows[rows] = src >= self.nf
+        self._n_fluid = None  # _fluid_neighbour_counts: counted anew for these lists
         self.no_rows = np.zeros(n, dtype=np.bool_)
         self.no_rg = np.zeros((n, 2))
         self.floor_rg = np.zeros((n, 2))
@@ -766,7 +762,7 @@ class IncompressibleFluid:
         gp = np.empty((nf, 2))
         K.corrected_pressure_gradient(self.x_all, self.p_all, self.vol_all, L, start, j, nf,
                                       self.h, self.kernel, len(self.x_all), self.no_rows,
-                                      self.no_rg, gp)
+                                      self.no_rows, self.no_rg, gp)
         return gp
 
     def _rows_beside_walls(self):
@@ -828,10 +824,13 @@ class IncompressibleFluid:
         return truncated
 
     def _fluid_neighbour_counts(self):
-        """Number of fluid neighbours of each fluid row (periodic fluid images included)."""
-        rows = np.repeat(np.arange(self.nf), np.diff(self.ff_start))
-        inner = self.fluid_of[self.ff_j] >= 0  # the fluid images are fluid neighbours too
-        return np.bincount(rows[inner], minlength=self.nf)
+        """Number of fluid neighbours of each fluid row (periodic fluid images included),
+        counted once per neighbour update (:meth:`_set_row_roles` clears it)."""
+        if self._n_fluid is None:
+            rows = np.repeat(np.arange(self.nf), np.diff(self.ff_start))
+            inner = self.fluid_of[self.ff_j] >= 0  # the fluid images are fluid neighbours too
+            self._n_fluid = np.bincount(rows[inner], minlength=self.nf)
+        return self._n_fluid
 
     def _solve_increment(self, A, rhs, source, alpha, relax, t0):
         """The incremental projection's solves [Goda 1979] (the matrix ``A``, the divergence
@@ -1073,8 +1072,8 @@ def warm_up(kind):
              kind, 0.01, 1.0, 1.0, 1.0, np.zeros((0, 2)))
     none = np.zeros(n, dtype=np.bool_)
     rg = np.zeros((n, 2))
-    K.pressure_gradient(x, p, vol, start, j, n, h, kind, 1.0, n, none, rg, gp)
-    K.corrected_pressure_gradient(x, p, vol, L, start, j, n, h, kind, n, none, rg, gp)
+    K.pressure_gradient(x, p, vol, start, j, n, h, kind, 1.0, n, none, none, rg, gp)
+    K.corrected_pressure_gradient(x, p, vol, L, start, j, n, h, kind, n, none, none, rg, gp)
     dr = np.zeros((n, 2))
     for model in (0, 1, 2):
         K.shift_vectors(x, v, vol, start, j, n, h, kind, model, 1.0, 0.0, 0.1, cls, nrm, dr)

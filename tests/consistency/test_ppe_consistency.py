@@ -112,7 +112,7 @@ def test_conservative_pressure_forces_are_antisymmetric():
     p = rng.uniform(0, 1e4, n)
     s, j = find_neighbors(x, x, 2.4, exclude_self=True)
     g = np.zeros((n, 2))
-    K.pressure_gradient(x, p, vol, s, j, n, 1.2, KIND, 1.01, len(x), np.zeros(len(x), bool), np.zeros((len(x), 2)), g)
+    K.pressure_gradient(x, p, vol, s, j, n, 1.2, KIND, 1.01, len(x), np.zeros(len(x), bool), np.ones(n, bool), np.zeros((len(x), 2)), g)
     force = -vol[:, None] * g
     total = force.sum(axis=0)
     assert np.max(np.abs(total)) < 1e-12 * np.abs(force).sum()

@@ -45,12 +45,12 @@ def test_velocity_divergence_and_gradients_match_oracle(perturbed):
     K.velocity_divergence(x, v, vol, s, j, nf, H, KIND, 1.01, out)
     assert_allclose(out, ref.velocity_divergence(x, v, vol, H, nf, 1.01), rtol=1e-12, atol=1e-13)
     g = np.zeros((nf, 2))
-    K.pressure_gradient(x, p, vol, s, j, nf, H, KIND, 1.01, len(x), np.zeros(len(x), bool), np.zeros((len(x), 2)), g)
+    K.pressure_gradient(x, p, vol, s, j, nf, H, KIND, 1.01, len(x), np.zeros(len(x), bool), np.ones(nf, bool), np.zeros((len(x), 2)), g)
     assert_allclose(g, ref.conservative_gradient(x, p, vol, H, nf, 1.01), rtol=1e-12, atol=1e-13)
     L = np.zeros((nf, 2, 2))
     K.correction_matrices(x, vol, s, j, H, KIND, L)
     assert_allclose(L, ref.correction(x, vol, H, nf), rtol=1e-12, atol=1e-13)
-    K.corrected_pressure_gradient(x, p, vol, L, s, j, nf, H, KIND, len(x), np.zeros(len(x), bool), np.zeros((len(x), 2)), g)
+    K.corrected_pressure_gradient(x, p, vol, L, s, j, nf, H, KIND, len(x), np.zeros(len(x), bool), np.ones(nf, bool), np.zeros((len(x), 2)), g)
     assert_allclose(g, ref.corrected_gradient(x, p, vol, H, nf), rtol=1e-12, atol=1e-13)
     nu = rng.uniform(1e-3, 2e-3, n)
     vs = np.zeros((nf, 2))
@@ -396,9 +396,9 @@ def test_wall_floor_matches_oracle(perturbed, rg):
     for corrected in (True, False):
         g = np.zeros((nf, 2))
         if corrected:
-            K.corrected_pressure_gradient(x, p, vol, L, s, j, nf, H, KIND, n, np.arange(n) >= nf, np.tile(rg, (n, 1)), g)
+            K.corrected_pressure_gradient(x, p, vol, L, s, j, nf, H, KIND, n, np.arange(n) >= nf, np.ones(nf, bool), np.tile(rg, (n, 1)), g)
         else:
-            K.pressure_gradient(x, p, vol, s, j, nf, H, KIND, 1.01, n, np.arange(n) >= nf, np.tile(rg, (n, 1)), g)
+            K.pressure_gradient(x, p, vol, s, j, nf, H, KIND, 1.01, n, np.arange(n) >= nf, np.ones(nf, bool), np.tile(rg, (n, 1)), g)
         changed = 0
         for i in range(nf):
             q = _floored(x, p, i, nf, n, rgv)
@@ -407,6 +407,29 @@ def test_wall_floor_matches_oracle(perturbed, rg):
                     else ref.conservative_gradient(x, q, vol, H, nf, 1.01))[i]
             assert_allclose(g[i], want, rtol=1e-10, atol=1e-9)
         assert changed > 10
+
+
+def test_wall_floor_row_mask_leaves_the_other_rows_unfloored(perturbed):
+    """``floor_row``: the rows it marks see the floored walls, the others the walls as they
+    are (the same oracle as above on the marked rows, the plain one elsewhere)."""
+    rng = np.random.default_rng(4)
+    x = perturbed
+    n, nf = len(x), 90
+    vol = rng.uniform(0.8, 1.2, n)
+    p = rng.normal(size=n) * 1e3
+    s, j = nbrs(x, nf)
+    L = np.zeros((nf, 2, 2))
+    K.correction_matrices(x, vol, s, j, H, KIND, L)
+    rg = np.array([0.0, -9810.0])
+    mask = rng.random(nf) < 0.5
+    g = np.zeros((nf, 2))
+    K.corrected_pressure_gradient(x, p, vol, L, s, j, nf, H, KIND, n, np.arange(n) >= nf, mask, np.tile(rg, (n, 1)), g)
+    floored_rows = 0
+    for i in range(nf):
+        q = _floored(x, p, i, nf, n, rg) if mask[i] else p
+        floored_rows += mask[i] and not np.array_equal(q, p)
+        assert_allclose(g[i], ref.corrected_gradient(x, q, vol, H, nf)[i], rtol=1e-10, atol=1e-9)
+    assert floored_rows > 5
 
 
 def test_wall_floor_pushes_a_particle_off_the_wall_and_keeps_hydrostatics():
@@ -425,15 +448,15 @@ def test_wall_floor_pushes_a_particle_off_the_wall_and_keeps_hydrostatics():
     p = np.zeros(n)
     p[i] = 100.0
     g = np.zeros((nf, 2))
-    K.corrected_pressure_gradient(x, p, vol, L, s, j, nf, H, KIND, n, np.zeros(n, bool), np.zeros((len(x), 2)), g)
+    K.corrected_pressure_gradient(x, p, vol, L, s, j, nf, H, KIND, n, np.zeros(n, bool), np.ones(nf, bool), np.zeros((len(x), 2)), g)
     assert g[i, 1] > 0.0  # -grad p points down: into the floor
-    K.corrected_pressure_gradient(x, p, vol, L, s, j, nf, H, KIND, n, np.arange(n) >= nf, np.zeros((len(x), 2)), g)
+    K.corrected_pressure_gradient(x, p, vol, L, s, j, nf, H, KIND, n, np.arange(n) >= nf, np.ones(nf, bool), np.zeros((len(x), 2)), g)
     assert g[i, 1] < 0.0
     rg = np.array([0.0, -9.81])
     ph = 50.0 + x @ rg  # hydrostatic p0 + rho g . x (rho = 1), surface above
     g0, g1 = np.zeros((nf, 2)), np.zeros((nf, 2))
-    K.corrected_pressure_gradient(x, ph, vol, L, s, j, nf, H, KIND, n, np.zeros(n, bool), np.zeros((len(x), 2)), g0)
-    K.corrected_pressure_gradient(x, ph, vol, L, s, j, nf, H, KIND, n, np.arange(n) >= nf, np.tile(rg, (n, 1)), g1)
+    K.corrected_pressure_gradient(x, ph, vol, L, s, j, nf, H, KIND, n, np.zeros(n, bool), np.ones(nf, bool), np.zeros((len(x), 2)), g0)
+    K.corrected_pressure_gradient(x, ph, vol, L, s, j, nf, H, KIND, n, np.arange(n) >= nf, np.ones(nf, bool), np.tile(rg, (n, 1)), g1)
     assert_allclose(g1, g0, rtol=1e-12, atol=1e-9)
 
 

@@ -148,8 +148,9 @@ tanks = [{ origin = [0.0, 0.0], size = [0.04, 0.03] }]
     rng = np.random.default_rng(5)
     p = 1000.0 * 9.81 * (0.012 - f.x_all[:, 1]) + rng.normal(scale=20.0, size=len(f.x_all))
     got = f._pressure_gradient(p, np.empty((nf, 2)), floor="increment")
-    plain = f._gradient_kernel(p, f.nf + f.nw - f.ns, f.no_rows, f.no_rg, np.empty((nf, 2)))
-    floored = f._gradient_kernel(p, f.nf + f.nw - f.ns, f.wall_rows, f.no_rg, np.empty((nf, 2)))
+    jmax, every_row = f.nf + f.nw - f.ns, np.ones(nf, dtype=bool)
+    plain = f._gradient_kernel(p, jmax, f.no_rows, every_row, f.no_rg, np.empty((nf, 2)))
+    floored = f._gradient_kernel(p, jmax, f.wall_rows, every_row, f.no_rg, np.empty((nf, 2)))
     interior = f.body["class"] == 0
     beside_walls = f._rows_beside_walls()
     assert (interior & beside_walls).sum() > 10 and (~interior & beside_walls).sum() > 4
