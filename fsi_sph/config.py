@@ -581,11 +581,14 @@ class CouplingSection(_Model):
     substeps: Annotated[int, Field(ge=1)] | None = Field(
         None, description="solid sub-steps per fluid step; default ceil(dt_fluid / dt_solid) "
         "from the two stability limits (the source uses 100)")
-    structure_acceleration: Literal["implicit", "explicit"] = Field(
+    structure_acceleration: Literal["implicit", "explicit", "rigid"] = Field(
         "implicit", description="how the pressure solve sees the structures' acceleration: "
-        "`implicit` solves for the fluid's share (stable for light, thin structures), "
+        "`implicit` solves for the fluid's share particle by particle (stable for light, thin, "
+        "clamped structures; wrong for free bulky bodies, whose surface it sees as yielding), "
         "`explicit` takes the last sub-cycle's (the plain staggered scheme; unstable when the "
-        "added mass exceeds the structure's mass)")
+        "added mass exceeds the structure's mass), `rigid` solves for each body's rigid-body "
+        "acceleration (translation and rotation) under the fluid's force and takes its "
+        "deformation's from the last sub-cycle (free bodies: floating, sinking; no clamp)")
 
 
 class Probe(_Model):
@@ -666,6 +669,10 @@ class Config(_Model):
                 if name not in self.solid:
                     raise ValueError(f"coupling.structures[{k}] = {name!r} names no solid; "
                                      f"solids are: {', '.join(sorted(self.solid)) or 'none'}")
+                if self.coupling.structure_acceleration == "rigid" and self.solid[name].clamp:
+                    raise ValueError(
+                        f"coupling.structure_acceleration = \"rigid\" is for free bodies, but "
+                        f"solid.{name} has a clamp; use \"implicit\" for clamped structures")
         seen = set()
         for k, p in enumerate(self.probes):
             if p.body not in bodies:

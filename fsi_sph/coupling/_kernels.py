@@ -15,7 +15,7 @@ import math
 
 from numba import njit, prange
 
-from fsi_sph.sph.kernels import kernel_dw
+from fsi_sph.sph.kernels import kernel_dw, kernel_w
 
 
 @njit(cache=True, parallel=True)
@@ -37,3 +37,53 @@ def pair_pressure_forces(xd, pd, vold, xs, ps, vols, nbr_start, nbr_j, h, kind, 
             f1 += c * d1
         out_f[i, 0] = -scale * vold[i] * f0
         out_f[i, 1] = -scale * vold[i] * f1
+
+
+@njit(cache=True)
+def rigid_mode_terms(x_s, vol_s, x_f, vol_f, sf_start, sf_j, h, kind, scale, body_of, xc,
+                     s_off, out_rbar, out_g):
+    """Terms of the PPE's rigid-body rows (``coupling.structure_acceleration = "rigid"``).
+
+    ``out_rbar[i] = sum_f w_if (x_i - x_f)`` (Shepard weights over structure particle ``i``'s
+    fluid neighbours; 0 without any), the lever of Adami's extrapolation. ``out_g[3 b + d]``:
+    the coefficients of the pressures in body ``b``'s generalised interface force ``d`` (x
+    force, y force, torque about ``xc[b]``), summed pair by pair from [F 46-47]::
+
+        F_b = sum_{i in b} sum_f G_if (p_i + p_f),  G_if = -c V_i V_f grad_i W_if,
+        T_b = sum_{i in b} sum_f (r_i x G_if) (p_i + p_f),  r_i = x_i - xc[b]
+
+    (column ``s_off + i`` for structure particle ``i``, ``f`` for fluid particle ``f``). A
+    fluid particle beside two structure particles collects from both, so this loop scatters
+    and runs serially (one pass over the interface pairs)."""
+    for i in range(x_s.shape[0]):
+        b = body_of[i]
+        rx = x_s[i, 0] - xc[b, 0]
+        ry = x_s[i, 1] - xc[b, 1]
+        sw = 0.0
+        r0 = 0.0
+        r1 = 0.0
+        for k in range(sf_start[i], sf_start[i + 1]):
+            j = sf_j[k]
+            d0 = x_s[i, 0] - x_f[j, 0]
+            d1 = x_s[i, 1] - x_f[j, 1]
+            r = math.sqrt(d0 * d0 + d1 * d1)
+            wt = kernel_w(kind, r, h)
+            sw += wt
+            r0 += wt * d0
+            r1 += wt * d1
+            if r < 1e-12 * h:
+                continue
+            c = -scale * vol_s[i] * vol_f[j] * kernel_dw(kind, r, h) / r
+            gx = c * d0
+            gy = c * d1
+            gt = rx * gy - ry * gx
+            for col in (s_off + i, j):
+                out_g[3 * b, col] += gx
+                out_g[3 * b + 1, col] += gy
+                out_g[3 * b + 2, col] += gt
+        if sw > 0.0:
+            out_rbar[i, 0] = r0 / sw
+            out_rbar[i, 1] = r1 / sw
+        else:
+            out_rbar[i, 0] = 0.0
+            out_rbar[i, 1] = 0.0

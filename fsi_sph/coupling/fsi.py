@@ -94,6 +94,9 @@ class FsiCoupling:
         if self.cfg.structure_acceleration == "explicit":
             self.fluid.set_structures(self.v_bar, self.a_bar)
             return
+        if self.cfg.structure_acceleration == "rigid":
+            self.fluid.set_structures(self.v_bar, self.a_bar, rigid=self._rigid_split())
+            return
         # implicit: hand the solve every acceleration but the fluid's (internal + gravity;
         # zero on clamped particles, which also get no implicit term: rho_s = inf)
         g = self.fluid.gravity
@@ -104,6 +107,31 @@ class FsiCoupling:
             a_other[sl] = np.where(free[:, None], b.body["a"] + g, 0.0)
             rho_s[sl] = np.where(free, b.rho0, np.inf)
         self.fluid.set_structures(self.v_bar, self.a_bar, a_other, rho_s)
+
+    def _rigid_split(self):
+        """``(a_rigid, body_of, mass, inertia, centre)`` for ``fluid.set_structures``: each
+        body's mass, moment of inertia about its centre of mass and that centre, and the
+        rigid-body part of the last sub-cycle's mean acceleration ``a_bar`` at each particle
+        (its mass-weighted translation and rotation about the centre)."""
+        ns = len(self.a_bar)
+        a_rigid = np.empty((ns, 2))
+        body_of = np.empty(ns, dtype=np.int64)
+        mass = np.empty(len(self.bodies))
+        inertia = np.empty(len(self.bodies))
+        centre = np.empty((len(self.bodies), 2))
+        for k, (b, sl) in enumerate(zip(self.bodies, self.slices, strict=True)):
+            m = b.body["m"]
+            x = b.body["x"]
+            a = self.a_bar[sl]
+            mass[k] = m.sum()
+            centre[k] = m @ x / mass[k]
+            r = x - centre[k]
+            inertia[k] = float(m @ np.einsum("ij,ij->i", r, r))
+            trans = m @ a / mass[k]
+            spin = float(m @ (r[:, 0] * a[:, 1] - r[:, 1] * a[:, 0])) / inertia[k]
+            a_rigid[sl] = trans + spin * np.column_stack([-r[:, 1], r[:, 0]])
+            body_of[sl] = k
+        return a_rigid, body_of, mass, inertia, centre
 
     def forces(self):
         """Interface forces [F 46-47] from the pressures of the last solve, at the current

@@ -264,6 +264,28 @@ class _Csr:
         return out
 
 
+class LowRank:
+    """``A + U G``: a :class:`_Csr` plus a dense term of low rank ``m`` (``U`` n x m,
+    ``G`` m x n), e.g. the rigid-body rows of free structures in the PPE. Krylov methods
+    take it like a :class:`_Csr`; the preconditioner is built on ``A`` alone."""
+
+    def __init__(self, A, U, G):
+        self.A = A
+        self.U = np.ascontiguousarray(U)
+        self.G = np.ascontiguousarray(G)
+        self.shape = A.shape
+
+    def matvec(self, x, out=None):
+        out = self.A.matvec(x, out)
+        out += self.U @ (self.G @ x)
+        return out
+
+    def residual(self, x, b, out):
+        self.A.residual(x, b, out)
+        out -= self.U @ (self.G @ x)
+        return out
+
+
 def as_csr(A):
     """A scipy CSR matrix as the typed arrays of the numba loops (no copy when it already has
     sorted int32 indices, as the PPE assembly makes it)."""

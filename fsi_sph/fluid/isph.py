@@ -164,6 +164,8 @@ class IncompressibleFluid:
         # boundary velocity u_b and body force g - a_b of the boundary rows (Adami)
         self.v_b = np.zeros((self.nw, 2))
         self.g_b = np.tile(self.gravity, (self.nw, 1))
+        self.rigid = None  # free bodies whose rigid-body motion the PPE solves for
+        self.g_star = None  # with them: the boundary rows' acceleration in div u*
         # rho c / rho_s on structure rows whose acceleration the PPE takes implicitly
         self.implicit = np.zeros(self.nw)
         # stacked fluid + boundary arrays seen by the loops (boundary after the fluid)
@@ -239,10 +241,13 @@ class IncompressibleFluid:
         return normals[:len(xw)]
 
     # ------------------------------------------------------------------ coupling
-    def set_structures(self, v_bar, a_bar, a_other=None, rho_s=None):
+    def set_structures(self, v_bar, a_bar, a_other=None, rho_s=None, rigid=None):
         """Moving boundary (PHYSICS.md §5): the structures' current positions, their velocity
         averaged over the last sub-cycle ``v_bar`` and acceleration ``a_bar`` (stacked in
-        ``self.structures`` order)."""
+        ``self.structures`` order). ``rigid = (a_rigid, body_of, mass, inertia, centre)``:
+        the structures are free bodies that the solve sees as rigid, their rigid-body
+        acceleration under the fluid's force taken implicitly (:meth:`_rigid_terms`);
+        ``a_rigid`` is the rigid-body part of ``a_bar`` at each particle."""
         if not self.ns:
             return
         k = self.nf + self.n_walls
@@ -261,6 +266,52 @@ class IncompressibleFluid:
         else:  # implicit: every acceleration but the fluid's; the fluid's is solved for
             self.g_b[self.n_walls:] = self.gravity - a_other
             self.implicit[self.n_walls:] = self.rho * self.grad_scale / rho_s
+        self.rigid = rigid
+        if rigid is not None:
+            # the solve sees each body as rigid: its rows take a_w = g + a_rigid(p), so
+            # g - a_w = -a_rigid(p), all of it in the matrix (_rigid_terms); div u* takes
+            # u_w + dt (g - a_rigid,last) (a_rigid,last: the rigid part of the last
+            # sub-cycle's mean acceleration), so that the step ends at
+            # u_w + dt (a_rigid(p) - a_rigid,last), the increment of the rigid motion taken
+            # implicitly (with the last one's, the explicit scheme's lagged velocity)
+            self.g_star = self.g_b.copy()
+            self.g_star[self.n_walls:] = self.gravity - rigid[0]
+            self.g_b[self.n_walls:] = 0.0
+
+    def _rigid_terms(self):
+        """``(U, G)`` of the free bodies' rigid-body rows, added to the PPE matrix as ``U G``
+        (scaled like the other boundary rows by ``diag_ref``). A structure row ``w`` of body
+        ``b`` is Adami's extrapolation with the body's rigid acceleration under the fluid's
+        generalised force ``G_b p`` (x, y force; torque about the centre of mass)::
+
+            p_w - sum_f w_wf p_f + rho rbar_w . (F_b / M_b + (T_b / I_b) z x r_w) = 0
+
+        (:func:`fsi_sph.coupling._kernels.rigid_mode_terms`; ``g - a_w`` without the fluid's
+        share is 0: the body's weight gives it ``g``, its internal forces neither net force
+        nor torque, and its deformation is not seen)."""
+        from fsi_sph.coupling._kernels import rigid_mode_terms
+
+        _, body_of, mass, inertia, centre = self.rigid
+        nb0 = self.nf + self.n_walls
+        n = len(self.p_all)
+        ns = n - nb0
+        k0 = self.wf_start[self.n_walls]
+        sf_start = np.ascontiguousarray(self.wf_start[self.n_walls:] - k0)
+        sf_j = np.ascontiguousarray(self.wf_j[k0:])
+        rbar = np.zeros((ns, 2))
+        G = np.zeros((3 * len(mass), n))
+        rigid_mode_terms(self.x_all[nb0:], self.vol_all[nb0:], self.x_all[:self.nf],
+                         self.vol_all[:self.nf], sf_start, sf_j, self.h, self.kernel,
+                         self.grad_scale, body_of, centre, nb0, rbar, G)
+        lever = self.x_all[nb0:] - centre[body_of]
+        c = self.diag_ref * self.rho
+        U = np.zeros((n, 3 * len(mass)))
+        rows = nb0 + np.arange(ns)
+        U[rows, 3 * body_of] = c * rbar[:, 0] / mass[body_of]
+        U[rows, 3 * body_of + 1] = c * rbar[:, 1] / mass[body_of]
+        U[rows, 3 * body_of + 2] = c * (rbar[:, 1] * lever[:, 0]
+                                        - rbar[:, 0] * lever[:, 1]) / inertia[body_of]
+        return U, G
 
     def extra_state(self):
         """State outside the fluid body's arrays that the next step needs (restart): the
@@ -620,7 +671,8 @@ class IncompressibleFluid:
         # (_refresh_wall_pressure), so the increment's wall rows carry none: the walls enter
         # with their own velocity, which is also the no-slip mirror target of the viscous
         # step (viscous.py), so both see the same u*_w.
-        vb_star = self.v_b.copy() if self.incremental_step else self.v_b + dt * self.g_b
+        g_star = self.g_b if self.rigid is None else self.g_star
+        vb_star = self.v_b.copy() if self.incremental_step else self.v_b + dt * g_star
         if self.periodic is not None:
             self.periodic.boundary_star(self, vb_star)
         self.velocity_divergence(self.v_star, vb_star, self.div)
@@ -648,7 +700,8 @@ class IncompressibleFluid:
             if self.periodic is not None:
                 A, rhs = self.periodic.constrain(A, rhs, self.diag_ref)
             t1 = time.perf_counter()
-            p, stats = self.ppe.solve(A, rhs, self.p_all, self.nf)
+            low_rank = self._rigid_terms() if self.rigid is not None else None
+            p, stats = self.ppe.solve(A, rhs, self.p_all, self.nf, low_rank)
             stats.assemble_time = t1 - t0
             if self.incremental:  # the initial pressure p^0 (_initial_pressure)
                 self.phi_all = np.zeros(len(p))

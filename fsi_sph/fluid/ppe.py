@@ -146,11 +146,12 @@ class PressureSolver:
         self.age = 0
         self.base_iterations = None
 
-    def solve(self, A, b, x0, nf=None):
+    def solve(self, A, b, x0, nf=None, low_rank=None):
         """Solve ``A p = b`` from the initial guess ``x0`` (the last pressure); returns
         ``(p, PPEStats)``. ``nf``: the number of fluid rows (the rest are boundary rows), used
-        to split the smoother's blocks. Raises ``RuntimeError`` if the iteration limit is
-        reached."""
+        to split the smoother's blocks. ``low_rank = (U, G)``: solve ``(A + U G) p = b``
+        instead (the AMG hierarchy is still that of ``A``). Raises ``RuntimeError`` if the
+        iteration limit is reached."""
         stats = PPEStats(n_unknowns=A.shape[0])
         bnorm = float(np.linalg.norm(b))
         if bnorm == 0.0:
@@ -161,11 +162,12 @@ class PressureSolver:
         elif self.cfg.refresh_finest:
             # the kept hierarchy's coarse levels with this step's matrix on the finest level
             self.vcycle.refresh_finest(Ac, amg.two_blocks(A, nf) if nf else None)
-        p = self._krylov(Ac, b, x0, bnorm, stats)
+        op = Ac if low_rank is None else amg.LowRank(Ac, *low_rank)
+        p = self._krylov(op, b, x0, bnorm, stats)
         if stats.residual > self.cfg.rtol and not stats.rebuilt:
             # a stale hierarchy that no longer preconditions well: rebuild and solve again
             self._timed_build(A, stats, nf)
-            p = self._krylov(Ac, b, p, bnorm, stats)
+            p = self._krylov(op, b, p, bnorm, stats)
         self.last_iterations = stats.iterations
         if self.base_iterations is None:
             self.base_iterations = stats.iterations
