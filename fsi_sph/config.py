@@ -410,12 +410,15 @@ class FluidSection(_Model):
     ppe: PPESection = PPESection()
     shifting: ShiftingSection | None = Field(None, description="absent: no shifting")
     smagorinsky: SmagorinskySection | None = Field(None, description="absent: no eddy viscosity")
-    pressure_gradient: Literal["corrected", "conservative"] = Field(
+    pressure_gradient: Literal["corrected", "conservative", "interface_conservative"] = Field(
         "corrected", description="pressure gradient of the correction step: `corrected` "
         "L_i sum V_j (p_j - p_i) grad W_ij [F 7, F 13] (exact for linear p also where the "
-        "support is truncated, so a tank at rest stays at rest) or `conservative` "
+        "support is truncated, so a tank at rest stays at rest), `conservative` "
         "sum V_j (p_i + p_j) grad W_ij [F 10] (antisymmetric pair forces: momentum conserved "
-        "to round-off, but a free-surface particle sees half the hydrostatic gradient)")
+        "to round-off, but a free-surface particle sees half the hydrostatic gradient and "
+        "still water blows up after ~0.5 s) or `interface_conservative`: conservative on the "
+        "rows with a coupled structure within their support (where the interface force "
+        "[F 46-47] must balance), corrected elsewhere")
     density_relaxation: Annotated[float, Field(ge=0.0, le=1.0)] = Field(
         0.0, description="coefficient of the compression-only density-error term added to "
         "the PPE source (Asai et al. 2012); 0 = the pure divergence-free projection [F 17]")
@@ -653,9 +656,10 @@ class Config(_Model):
         if self.coupling is not None:
             if self.fluid is None:
                 raise ValueError("[coupling] needs a [fluid] table")
-            if self.fluid.pressure_gradient != "conservative":
+            if self.fluid.pressure_gradient == "corrected":
                 raise ValueError(
-                    "[coupling] needs fluid.pressure_gradient = \"conservative\": the interface "
+                    "[coupling] needs fluid.pressure_gradient = \"interface_conservative\" "
+                    "(or \"conservative\"): the interface "
                     "force is the pair form V_s V_f (p_s + p_f) grad W [F 46-47], which balances "
                     "only against the same form on the fluid side (a difference-form gradient "
                     "beside it pushes the fluid off the structure under a uniform pressure)")

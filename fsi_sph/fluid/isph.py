@@ -592,15 +592,34 @@ class IncompressibleFluid:
         return self._gradient_kernel(p, jmax, floored, rows, rg, out)
 
     def _gradient_kernel(self, p, jmax, floored, floor_row, rg, out):
-        if self.cfg.pressure_gradient == "conservative":
+        form = self.cfg.pressure_gradient
+        if form == "conservative":
             K.pressure_gradient(self.x_all, p, self.vol_all, self.ff_start, self.ff_j, self.nf,
                                 self.h, self.kernel, self.grad_scale, jmax, floored, floor_row,
                                 rg, out)
-        else:
-            K.corrected_pressure_gradient(self.x_all, p, self.vol_all, self.L, self.ff_start,
-                                          self.ff_j, self.nf, self.h, self.kernel, jmax, floored,
-                                          floor_row, rg, out)
+            return out
+        K.corrected_pressure_gradient(self.x_all, p, self.vol_all, self.L, self.ff_start,
+                                      self.ff_j, self.nf, self.h, self.kernel, jmax, floored,
+                                      floor_row, rg, out)
+        if form == "interface_conservative" and self.ns:
+            # the rows beside a structure take the pair form [F 10], the one that balances the
+            # interface force [F 46-47] (under a uniform pressure both vanish there)
+            rows = self._structure_rows(jmax)
+            cons = np.empty_like(out)
+            K.pressure_gradient(self.x_all, p, self.vol_all, self.ff_start, self.ff_j, self.nf,
+                                self.h, self.kernel, self.grad_scale, jmax, floored, floor_row,
+                                rg, cons)
+            out[rows] = cons[rows]
         return out
+
+    def _structure_rows(self, jmax):
+        """Fluid rows with a coupled structure particle (global index ``>= jmax``) among
+        their neighbours (``pressure_gradient = "interface_conservative"``)."""
+        counts = np.diff(self.ff_start[:self.nf + 1])
+        row_of = np.repeat(np.arange(self.nf), counts)
+        near = np.zeros(self.nf, dtype=bool)
+        near[row_of[self.ff_j[:self.ff_start[self.nf]] >= jmax]] = True
+        return near
 
     def _floor_rows(self):
         """The fluid rows on which the walls' floor (``fluid.wall_suction = false``) acts:
