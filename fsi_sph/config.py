@@ -419,7 +419,8 @@ class FluidSection(_Model):
         "still water blows up after ~0.5 s) or `interface_conservative`: conservative on the "
         "rows with a coupled structure within their support (where the interface force "
         "[F 46-47] must balance), corrected elsewhere (holds still water around a submerged "
-        "structure; the dam break on the elastic obstacle blew up with it at 0.29-0.50 s)")
+        "structure; the coupled cases use it with [fluid.collision], without which their "
+        "shallow draining water threw particles out at 0.25-0.5 s)")
     density_relaxation: Annotated[float, Field(ge=0.0, le=1.0)] = Field(
         0.0, description="coefficient of the compression-only density-error term added to "
         "the PPE source (Asai et al. 2012); 0 = the pure divergence-free projection [F 17]")
