@@ -591,9 +591,10 @@ class CouplingSection(_Model):
         "`implicit` solves for the fluid's share particle by particle (stable for light, thin, "
         "clamped structures; wrong for free bulky bodies, whose surface it sees as yielding), "
         "`explicit` takes the last sub-cycle's (the plain staggered scheme; unstable when the "
-        "added mass exceeds the structure's mass), `rigid` solves for each body's rigid-body "
-        "acceleration (translation and rotation) under the fluid's force and takes its "
-        "deformation's from the last sub-cycle (free bodies: floating, sinking; no clamp)")
+        "added mass exceeds the structure's mass), `rigid` sees each body as rigid and solves "
+        "for its acceleration (translation and rotation) under the fluid's force (free "
+        "bodies: floating, sinking, rising; no clamp; the body itself still deforms in its "
+        "sub-cycles)")
 
 
 class Probe(_Model):

@@ -614,12 +614,20 @@ class IncompressibleFluid:
 
     def _structure_rows(self, jmax):
         """Fluid rows with a coupled structure particle (global index ``>= jmax``) among
-        their neighbours (``pressure_gradient = "interface_conservative"``)."""
-        counts = np.diff(self.ff_start[:self.nf + 1])
-        row_of = np.repeat(np.arange(self.nf), counts)
-        near = np.zeros(self.nf, dtype=bool)
-        near[row_of[self.ff_j[:self.ff_start[self.nf]] >= jmax]] = True
-        return near
+        their neighbours (``pressure_gradient = "interface_conservative"``), found once per
+        neighbour update (:meth:`_set_row_roles` clears it)."""
+        if self._near_structure is None:
+            near = np.zeros(self.nf, dtype=bool)
+            near[self._row_of()[self.ff_j[:self.ff_start[self.nf]] >= jmax]] = True
+            self._near_structure = near
+        return self._near_structure
+
+    def _row_of(self):
+        """The fluid row of each entry of the fluid rows' neighbour lists."""
+        if self._row_of_pairs is None:
+            self._row_of_pairs = np.repeat(np.arange(self.nf),
+                                           np.diff(self.ff_start[:self.nf + 1]))
+        return self._row_of_pairs
 
     def _floor_rows(self):
         """The fluid rows on which the walls' floor (``fluid.wall_suction = false``) acts:
@@ -655,7 +663,8 @@ class IncompressibleFluid:
             rows, src = self.periodic.rows, self.periodic.src
             self.fluid_of[rows] = np.where(src < self.nf, src, -1)
             self.wall_rows[rows] = src >= self.nf
-        self._n_fluid = None  # _fluid_neighbour_counts: counted anew for these lists
+        # counted anew for these lists: _fluid_neighbour_counts, _structure_rows, _row_of
+        self._n_fluid = self._near_structure = self._row_of_pairs = None
         self.no_rows = np.zeros(n, dtype=np.bool_)
         self.no_rg = np.zeros((n, 2))
         self.floor_rg = np.zeros((n, 2))
@@ -899,9 +908,9 @@ class IncompressibleFluid:
         """Number of fluid neighbours of each fluid row (periodic fluid images included),
         counted once per neighbour update (:meth:`_set_row_roles` clears it)."""
         if self._n_fluid is None:
-            rows = np.repeat(np.arange(self.nf), np.diff(self.ff_start))
-            inner = self.fluid_of[self.ff_j] >= 0  # the fluid images are fluid neighbours too
-            self._n_fluid = np.bincount(rows[inner], minlength=self.nf)
+            j = self.ff_j[:self.ff_start[self.nf]]
+            inner = self.fluid_of[j] >= 0  # the fluid images are fluid neighbours too
+            self._n_fluid = np.bincount(self._row_of()[inner], minlength=self.nf)
         return self._n_fluid
 
     def _solve_increment(self, A, rhs, source, alpha, relax, t0):
