@@ -586,15 +586,16 @@ class CouplingSection(_Model):
     substeps: Annotated[int, Field(ge=1)] | None = Field(
         None, description="solid sub-steps per fluid step; default ceil(dt_fluid / dt_solid) "
         "from the two stability limits (the source uses 100)")
-    structure_acceleration: Literal["implicit", "explicit", "rigid"] = Field(
-        "implicit", description="how the pressure solve sees the structures' acceleration: "
-        "`implicit` solves for the fluid's share particle by particle (stable for light, thin, "
-        "clamped structures; wrong for free bulky bodies, whose surface it sees as yielding), "
-        "`explicit` takes the last sub-cycle's (the plain staggered scheme; unstable when the "
-        "added mass exceeds the structure's mass), `rigid` sees each body as rigid and solves "
-        "for its acceleration (translation and rotation) under the fluid's force (free "
-        "bodies: floating, sinking, rising; no clamp; the body itself still deforms in its "
-        "sub-cycles)")
+    structure_acceleration: Literal["auto", "implicit", "explicit", "rigid"] = Field(
+        "auto", description="how the pressure solve sees the structures' acceleration: "
+        "`implicit` solves for the fluid's share particle by particle (clamped structures: "
+        "the gate, the obstacle; a free bulky body blows up with it), `rigid` sees each body "
+        "as rigid and solves for its acceleration (translation and rotation) under the "
+        "fluid's force (free bodies: floating, sinking, rising; no clamp; the body itself "
+        "still deforms in its sub-cycles), `explicit` takes the last sub-cycle's (the plain "
+        "staggered scheme; unstable when the added mass exceeds the structure's mass), "
+        "`auto` picks `implicit` when every coupled structure is clamped and `rigid` when "
+        "none is")
 
 
 class Probe(_Model):
@@ -676,10 +677,7 @@ class Config(_Model):
                 if name not in self.solid:
                     raise ValueError(f"coupling.structures[{k}] = {name!r} names no solid; "
                                      f"solids are: {', '.join(sorted(self.solid)) or 'none'}")
-                if self.coupling.structure_acceleration == "rigid" and self.solid[name].clamp:
-                    raise ValueError(
-                        f"coupling.structure_acceleration = \"rigid\" is for free bodies, but "
-                        f"solid.{name} has a clamp; use \"implicit\" for clamped structures")
+            self._check_structure_scheme()
         seen = set()
         for k, p in enumerate(self.probes):
             if p.body not in bodies:
@@ -692,6 +690,40 @@ class Config(_Model):
                 raise ValueError(f"probes[{k}].name = {p.name!r} is used twice")
             seen.add(p.name)
         return self
+
+    def structure_scheme(self) -> str:
+        """``coupling.structure_acceleration`` with ``auto`` resolved: ``implicit`` when every
+        coupled structure is clamped, ``rigid`` when none is."""
+        scheme = self.coupling.structure_acceleration
+        if scheme != "auto":
+            return scheme
+        clamped = [bool(self.solid[n].clamp) for n in self.coupling.structures]
+        return "implicit" if all(clamped) else "rigid"
+
+    def _check_structure_scheme(self):
+        """Each scheme's structures: ``implicit`` clamped ones (a free bulky body blows up
+        with it), ``rigid`` free ones; ``auto`` cannot mix them."""
+        names = self.coupling.structures
+        clamped = [n for n in names if self.solid[n].clamp]
+        free = [n for n in names if not self.solid[n].clamp]
+        scheme = self.coupling.structure_acceleration
+        if scheme == "rigid" and clamped:
+            raise ValueError(
+                f"coupling.structure_acceleration = \"rigid\" is for free bodies, but "
+                f"solid.{clamped[0]} has a clamp; use \"implicit\" for clamped structures")
+        if scheme == "implicit" and free:
+            raise ValueError(
+                f"coupling.structure_acceleration = \"implicit\" is for clamped structures, "
+                f"but solid.{free[0]} has no clamp (a free body's surface is not held by its "
+                f"neighbours in the implicit rows: a free square in still water blew up in "
+                f"170 steps); use \"rigid\" for free bodies")
+        if scheme == "auto" and clamped and free:
+            raise ValueError(
+                f"coupling.structures mixes clamped ({', '.join(clamped)}) and free "
+                f"({', '.join(free)}) solids: `auto` picks \"implicit\" for clamped and "
+                f"\"rigid\" for free ones, not both in one scene; set "
+                f"coupling.structure_acceleration = \"explicit\" (stable only where each "
+                f"structure outweighs its added mass) or couple one kind")
 
     def modules(self) -> list[str]:
         """The physics modules this scene enables, in the order the step runs them."""
@@ -712,7 +744,8 @@ class Config(_Model):
         for name in self.solid:
             mods.append(f"tlsph_elastic_solid:{name}")
         if self.coupling is not None:
-            mods.append("fsi_coupling:" + ",".join(self.coupling.structures))
+            mods.append("fsi_coupling:" + ",".join(self.coupling.structures)
+                        + f"({self.structure_scheme()})")
         for name in self.soil:
             mods.append(f"drucker_prager_soil:{name}")
         if self.boundary is not None:

@@ -43,7 +43,8 @@ class Simulation:
         if cfg.coupling is not None:
             from fsi_sph.coupling.fsi import FsiCoupling
 
-            self.coupling = FsiCoupling(cfg.coupling, self.fluid, coupled)
+            self.coupling = FsiCoupling(cfg.coupling, self.fluid, coupled,
+                                        cfg.structure_scheme())
         walls = cfg.boundary.walls if cfg.boundary is not None else ()
         for name, sec in cfg.soil.items():  # [soil.NAME] present -> a Drucker-Prager body
             self.structures[name] = DruckerPragerBody(name, sec, c.dx, cfg.sph, c.gravity,

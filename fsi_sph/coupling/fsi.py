@@ -67,8 +67,9 @@ class FsiCoupling:
     the structures with their share held fixed and logs the interface power on both sides.
     """
 
-    def __init__(self, cfg, fluid, bodies):
+    def __init__(self, cfg, fluid, bodies, scheme):
         self.cfg = cfg
+        self.scheme = scheme  # structure_acceleration, "auto" resolved (Config.structure_scheme)
         self.fluid = fluid
         self.bodies = list(bodies)
         ns = sum(b.body.n for b in self.bodies)
@@ -91,10 +92,10 @@ class FsiCoupling:
         for b, sl in zip(self.bodies, self.slices, strict=True):
             self.v_bar[sl] = b.body["v_bar"]
             self.a_bar[sl] = b.body["a_bar"]
-        if self.cfg.structure_acceleration == "explicit":
+        if self.scheme == "explicit":
             self.fluid.set_structures(self.v_bar, self.a_bar)
             return
-        if self.cfg.structure_acceleration == "rigid":
+        if self.scheme == "rigid":
             self.fluid.set_structures(self.v_bar, self.a_bar, rigid=self._rigid_split())
             return
         # implicit: hand the solve every acceleration but the fluid's (internal + gravity;

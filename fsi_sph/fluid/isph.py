@@ -266,6 +266,19 @@ class IncompressibleFluid:
         else:  # implicit: every acceleration but the fluid's; the fluid's is solved for
             self.g_b[self.n_walls:] = self.gravity - a_other
             self.implicit[self.n_walls:] = self.rho * self.grad_scale / rho_s
+        # div u* takes the boundary rows at u_b + dt g_star (solve_pressure)
+        self.g_star = None
+        if a_other is not None:
+            # implicit: the structure particles enter div u* as the walls do, at u_b + dt g;
+            # the rows' extrapolation then ends the step with them at u_b + dt (a_other +
+            # f(p) / m), their whole acceleration. With u_b + dt (g - a_other) they ended at
+            # u_b + dt f(p) / m, without the internal force that balances the fluid's: the
+            # fluid saw a loaded gate run away from it at up to dt * 380 m/s^2, ran into it
+            # (the kinematic guard caught it) and the gate's peak depended on dt (-5.5 /
+            # -10.7 % at dt_max 2e-4 / 5e-5 s; now 40.1 mm at 2e-4, 39.5 / 39.2 mm at 2e-4
+            # / 5e-5 s, 3 across)
+            self.g_star = self.g_b.copy()
+            self.g_star[self.n_walls:] = self.gravity
         self.rigid = rigid
         if rigid is not None:
             # the solve sees each body as rigid: its rows take a_w = g + a_rigid(p), so
@@ -694,12 +707,14 @@ class IncompressibleFluid:
         # wall rows) takes back to u_w in the correction. With u*_w = u_w instead, the wall
         # flux would be counted twice, once through div u* and once through the extrapolated
         # wall pressure, and a tank at rest would not stay at rest.
-        # A moving boundary (structure particle) likewise enters with u_b + dt (g - a_b).
+        # A moving boundary (structure particle) likewise enters with u_b + dt (g - a_b)
+        # when its acceleration a_b is known (explicit), with u_b + dt g when the solve takes
+        # it implicitly (set_structures).
         # Incremental projection [Goda 1979]: the walls' p^n already holds the g term
         # (_refresh_wall_pressure), so the increment's wall rows carry none: the walls enter
         # with their own velocity, which is also the no-slip mirror target of the viscous
         # step (viscous.py), so both see the same u*_w.
-        g_star = self.g_b if self.rigid is None else self.g_star
+        g_star = self.g_b if self.g_star is None else self.g_star
         vb_star = self.v_b.copy() if self.incremental_step else self.v_b + dt * g_star
         if self.periodic is not None:
             self.periodic.boundary_star(self, vb_star)

@@ -11,15 +11,14 @@ Two analytic answers for the first instants (before any wake forms):
 Measured (dx 6 mm, 10 x 10 particles in the square, fluid step 1 ms; 2026-12-01):
 ``structure_acceleration = "explicit"`` holds the neutral body (|v| <= 1e-3 m/s, a step-to-step
 alternation of the interface force around the weight that decays) and gives 3.11 m/s^2 for
-the heavy one (+1 %). ``"implicit"`` (the default, needed by the thin gate whose added mass is
-~14 times its own) gets both wrong: the neutral body sinks (-0.045 m/s after 20 ms) and the
-heavy one starts at 8.7 m/s^2 (above free fall in water, 4.9) and averages 5.3 m/s^2 over
-the first 10 ms. Its structure rows treat every interface particle as free to move under its
-own share of the interface force (a = a~ + f_w / m_w), so the solve sees the body's surface
-as a light, yielding wall: the interface force starts at 13 % of the weight and recovers by a
-factor of about 0.85 per fluid step, and the momentum gained meanwhile stays. These tests
-fail on the implicit scheme (strict xfail) until the structure rows see a bulky body's
-inertia; see docs/session_notes_2026-12-01d.md.
+the heavy one (+1 %). ``"implicit"`` (needed by the thin gate whose added mass is ~14 times its own) got both wrong
+at first: the neutral body sank (-0.045 m/s after 20 ms) and the heavy one averaged 5.3 m/s^2
+over the first 10 ms. Its structure rows treat every interface particle as free to move under
+its own share of the interface force (a = a~ + f_w / m_w), so the solve sees the body's
+surface as a light, yielding wall. With the structure particles in div u* at u_b + dt g (the
+implicit scheme's consistent velocity, 2026-12-01e) the neutral body blows up after 170 steps
+(0.105 s). A config with "implicit" and a free body is refused; ``auto`` (the default) picks
+``rigid`` for free bodies.
 
 ``structure_acceleration = "rigid"`` (for free bodies) solves for each body's rigid-body
 acceleration under the fluid's generalised force (a rank-3 term per body in the PPE matrix):
@@ -30,7 +29,7 @@ added mass 2.4 times its own, where the explicit scheme blows up) -2.99 against 
 import numpy as np
 import pytest
 
-from fsi_sph.config import load_config
+from fsi_sph.config import ConfigError, load_config
 from fsi_sph.simulation import Simulation
 
 RHO_F = 1000.0
@@ -63,12 +62,6 @@ structures = ["body"]
 structure_acceleration = "{scheme}"
 """
 
-IMPLICIT_FAILS = pytest.mark.xfail(
-    strict=True, reason="the implicit structure rows see each interface particle's own mass, "
-    "not the body's (measured: neutral body -0.045 m/s after 20 ms; heavy body 5.3 m/s^2 "
-    "against 3.08)")
-
-
 def _sink(tmp_path, rho_s, scheme, t_end):
     """Mean vertical velocity of the body after each fluid step up to ``t_end``."""
     p = tmp_path / "body.toml"
@@ -84,7 +77,7 @@ def _sink(tmp_path, rho_s, scheme, t_end):
     return np.array(t), np.array(vy)
 
 
-SCHEMES = ["rigid", "explicit", pytest.param("implicit", marks=IMPLICIT_FAILS)]
+SCHEMES = ["rigid", "explicit"]
 
 
 @pytest.mark.parametrize("scheme", SCHEMES)
@@ -114,3 +107,18 @@ def test_light_body_rises_with_its_added_mass(tmp_path):
     a = _initial_acceleration(tmp_path, rho_s, "rigid")
     expected = G * (rho_s - RHO_F) / (rho_s + C_A * RHO_F)
     assert abs(a / expected - 1.0) < 0.10, (a, expected)
+
+
+def test_implicit_scheme_refuses_a_free_body(tmp_path):
+    p = tmp_path / "body.toml"
+    p.write_text(CASE.format(rho_s=RHO_F, scheme="implicit"))
+    with pytest.raises(ConfigError, match="solid.body has no clamp"):
+        load_config(p)
+
+
+def test_auto_scheme_picks_rigid_for_a_free_body(tmp_path):
+    p = tmp_path / "body.toml"
+    p.write_text(CASE.format(rho_s=RHO_F, scheme="auto"))
+    cfg = load_config(p)
+    assert cfg.structure_scheme() == "rigid"
+    assert Simulation(cfg).coupling.scheme == "rigid"

@@ -115,3 +115,27 @@ def test_rigid_refuses_a_clamped_body(tmp_path):
     p.write_text(text)
     with pytest.raises(ConfigError, match="solid.b has a clamp"):
         load_config(p)
+
+
+CLAMP_A = '[solid.a]\nclamp = [{ origin = [0.05, 0.1], size = [0.06, 0.01] }]\n'
+CLAMP_B = '[solid.b]\nclamp = [{ origin = [0.18, 0.12], size = [0.05, 0.01] }]\n'
+
+
+@pytest.mark.parametrize("clamps, expected", [((), "rigid"), ((CLAMP_A, CLAMP_B), "implicit")])
+def test_auto_scheme_follows_the_clamps(tmp_path, clamps, expected):
+    text = CASE.replace('structure_acceleration = "rigid"', 'structure_acceleration = "auto"')
+    for c in clamps:
+        text = text.replace(c.split("\n")[0] + "\n", c)
+    p = tmp_path / "c.toml"
+    p.write_text(text)
+    cfg = load_config(p)
+    assert cfg.structure_scheme() == expected
+    assert f"fsi_coupling:a,b({expected})" in cfg.modules()
+
+
+def test_auto_scheme_refuses_clamped_and_free_together(tmp_path):
+    text = CASE.replace('structure_acceleration = "rigid"', 'structure_acceleration = "auto"')
+    p = tmp_path / "c.toml"
+    p.write_text(text.replace("[solid.b]\n", CLAMP_B))
+    with pytest.raises(ConfigError, match=r"mixes clamped \(b\) and free \(a\)"):
+        load_config(p)
