@@ -23,9 +23,17 @@ But the deflection is not small: the TLSPH gate alone under the initial head
 (:func:`tlsph_static_tip`, recorded as ``values.static_tip_mm_tlsph_linear`` and
 ``_tlsph_pressure``) deflects 47.4 mm in the linear regime (beam theory +4 %) and 41.0 mm
 (dx 2.5 mm; 41.6 mm at dx 1 mm) under the pressure of the full head, the tip rising 12 mm:
-geometric nonlinearity takes 13 % off. The coupled runs peak at 39-40 mm, a little below
-that static value for a head that falls as the tank drains; the experiment's 46.3 mm is 11 %
-above it. With E = 12 MPa and an elastic gate no 2D model reaches 46.3 mm quasi-statically.
+geometric nonlinearity takes 13 % off. The coupled runs peak at 39.5-40.2 mm (2-5 across,
+converged in dx and in dt since the implicit coupling's boundary velocity was made
+consistent, 2026-12-01e), a little below that static value for a head that falls as the
+tank drains; the experiment's 46.3 mm is 11 % above it. With E = 12 MPa and an elastic gate
+no 2D model reaches 46.3 mm quasi-statically.
+
+A second, numerical reference: the SPH-FEM curves labelled Yang et al. 2012 (an independent
+2D solution, peak 34.1 mm at 0.102 s), recorded as ``values.rms_x_mm_yang`` /
+``rms_y_mm_yang``. The plane-strain rung follows them within 2.4 / 0.7 mm RMS over 0-0.38 s
+(the plane-stress rungs, softer, 5.4 / 1.6 mm), while every rung stays ~10 mm below the
+experiment after its peak.
 """
 
 from __future__ import annotations
@@ -130,11 +138,28 @@ def compare(t, ux, uy, data_dir):
     ox = np.interp(tx[inside_x], t, ux)
     oy = np.interp(ty[inside_y], t, uy)
     k = int(np.argmax(ux))
-    return ({"peak_x_pct": 100 * (ux[k] - REF_PEAK_X) / REF_PEAK_X},
-            {"peak_x_mm": 1e3 * ux[k], "peak_time_x_s": float(t[k]),
-             "rms_x_mm": 1e3 * math.sqrt(np.mean((ox - ex[inside_x]) ** 2)),
-             "rms_y_mm": 1e3 * math.sqrt(np.mean((oy - ey[inside_y]) ** 2)),
-             "experiment_points_compared": int(inside_x.sum())})
+    values = {"peak_x_mm": 1e3 * ux[k], "peak_time_x_s": float(t[k]),
+              "rms_x_mm": 1e3 * math.sqrt(np.mean((ox - ex[inside_x]) ** 2)),
+              "rms_y_mm": 1e3 * math.sqrt(np.mean((oy - ey[inside_y]) ** 2)),
+              "experiment_points_compared": int(inside_x.sum())}
+    values.update(against_yang(t, ux, uy, folder))
+    return {"peak_x_pct": 100 * (ux[k] - REF_PEAK_X) / REF_PEAK_X}, values
+
+
+def against_yang(t, ux, uy, folder):
+    """RMS differences (mm) from the SPH-FEM curves labelled Yang et al. 2012 (a secondary,
+    numerical reference: an independent 2D solution of the same case), at that curve's
+    samples up to the end of the run; empty if the files are absent."""
+    out = {}
+    for comp, d in (("x", ux), ("y", uy)):
+        path = folder / f"yang2012_sphfem_{comp}.txt"
+        if not path.exists():
+            return {}
+        ty, dy = load_curve(path)
+        inside = ty <= t[-1] + 1e-9
+        diff = np.interp(ty[inside], t, d) - dy[inside]
+        out[f"rms_{comp}_mm_yang"] = 1e3 * math.sqrt(np.mean(diff**2))
+    return out
 
 
 def plot(runs, data_dir, path):
