@@ -39,8 +39,36 @@ def pair_pressure_forces(xd, pd, vold, xs, ps, vols, nbr_start, nbr_j, h, kind, 
         out_f[i, 1] = -scale * vold[i] * f1
 
 
+@njit(cache=True, parallel=True)
+def pair_pressure_forces_m(xd, pd, vold, xs, ps, vols, nbr_start, nbr_j, h, kind, scale, M,
+                           m_on_dest, out_f):
+    """:func:`pair_pressure_forces` with the pair's gradient weighted by the matrix ``M`` of
+    its fluid particle: ``out_f[i] = -scale sum_j V_i V_j (p_i + p_j) M_f grad_i W_ij``,
+    ``f = i`` when ``m_on_dest`` (destinations are the fluid rows) else ``f = j``. ``M_f = I``
+    gives the plain pair term; ``scale M_f = L_f`` [F 13-14] the corrected one of the
+    waterline rows (``IncompressibleFluid.interface_weights``). The same matrix on both sides
+    of a pair keeps action equal to reaction."""
+    for i in prange(xd.shape[0]):
+        row = nbr_j.dtype.type(i)
+        f0 = 0.0
+        f1 = 0.0
+        for k in range(nbr_start[i], nbr_start[i + 1]):
+            j = nbr_j[k]
+            d0 = xd[i, 0] - xs[j, 0]
+            d1 = xd[i, 1] - xs[j, 1]
+            r = math.sqrt(d0 * d0 + d1 * d1)
+            if r < 1e-12 * h:
+                continue
+            c = vols[j] * (pd[i] + ps[j]) * kernel_dw(kind, r, h) / r
+            m = row if m_on_dest else j
+            f0 += c * (M[m, 0, 0] * d0 + M[m, 0, 1] * d1)
+            f1 += c * (M[m, 1, 0] * d0 + M[m, 1, 1] * d1)
+        out_f[i, 0] = -scale * vold[i] * f0
+        out_f[i, 1] = -scale * vold[i] * f1
+
+
 @njit(cache=True)
-def rigid_mode_terms(x_s, vol_s, x_f, vol_f, sf_start, sf_j, h, kind, scale, body_of, xc,
+def rigid_mode_terms(x_s, vol_s, x_f, vol_f, sf_start, sf_j, h, kind, scale, M, body_of, xc,
                      s_off, out_rbar, out_g):
     """Terms of the PPE's rigid-body rows (``coupling.structure_acceleration = "rigid"``).
 
@@ -49,10 +77,12 @@ def rigid_mode_terms(x_s, vol_s, x_f, vol_f, sf_start, sf_j, h, kind, scale, bod
     the coefficients of the pressures in body ``b``'s generalised interface force ``d`` (x
     force, y force, torque about ``xc[b]``), summed pair by pair from [F 46-47]::
 
-        F_b = sum_{i in b} sum_f G_if (p_i + p_f),  G_if = -c V_i V_f grad_i W_if,
+        F_b = sum_{i in b} sum_f G_if (p_i + p_f),  G_if = -c V_i V_f M_f grad_i W_if,
         T_b = sum_{i in b} sum_f (r_i x G_if) (p_i + p_f),  r_i = x_i - xc[b]
 
-    (column ``s_off + i`` for structure particle ``i``, ``f`` for fluid particle ``f``). A
+    (column ``s_off + i`` for structure particle ``i``, ``f`` for fluid particle ``f``;
+    ``M_f`` the pair weights of :func:`pair_pressure_forces_m`, the identity but on the
+    waterline rows, so that the solve sees the force the body then receives). A
     fluid particle beside two structure particles collects from both, so this loop scatters
     and runs serially (one pass over the interface pairs)."""
     for i in range(x_s.shape[0]):
@@ -74,8 +104,8 @@ def rigid_mode_terms(x_s, vol_s, x_f, vol_f, sf_start, sf_j, h, kind, scale, bod
             if r < 1e-12 * h:
                 continue
             c = -scale * vol_s[i] * vol_f[j] * kernel_dw(kind, r, h) / r
-            gx = c * d0
-            gy = c * d1
+            gx = c * (M[j, 0, 0] * d0 + M[j, 0, 1] * d1)
+            gy = c * (M[j, 1, 0] * d0 + M[j, 1, 1] * d1)
             gt = rx * gy - ry * gx
             for col in (s_off + i, j):
                 out_g[3 * b, col] += gx

@@ -148,6 +148,16 @@ class FsiCoupling:
         k0 = fl.wf_start[fl.n_walls]
         sf = (fl.wf_start[fl.n_walls:] - k0, fl.wf_j[k0:])
         fs = transpose_csr(*sf, fl.nf)
+        if fl.waterline_rows().any():  # their pair terms weighted by L_f (waterline_rows)
+            w = fl.interface_weights()
+            p_s, p_f = fl.p_all[nb0:], fl.p_all[:fl.nf]
+            v_s, v_f = fl.vol_all[nb0:], fl.vol_all[:fl.nf]
+            c = fl.grad_scale
+            K.pair_pressure_forces_m(x_s, p_s, v_s, x_f, p_f, v_f, *sf, fl.h, fl.kernel, c, w,
+                                     False, self.on_structure)
+            K.pair_pressure_forces_m(x_f, p_f, v_f, x_s, p_s, v_s, *fs, fl.h, fl.kernel, c, w,
+                                     True, self.on_fluid)
+            return self.on_fluid
         interface_forces(x_s, fl.p_all[nb0:], fl.vol_all[nb0:], x_f, fl.p_all[:fl.nf],
                          fl.vol_all[:fl.nf], *sf, *fs, fl.h, fl.kernel, fl.grad_scale,
                          self.on_structure, self.on_fluid)

@@ -331,7 +331,8 @@ def ppe_row_lengths(alpha, f_start, w_start, nf, nw, out_len):
 
 @njit(cache=True, parallel=True)
 def ppe_fill(x, vol, alpha, source, L, consistent, f_start, f_j, w_start, w_j, nf, nw, h, kind,
-             eta2, lap_scale, diag_ref, rho, gb, implicit, indptr, out_indices, out_data, out_b):
+             eta2, lap_scale, diag_ref, rho, gb, implicit, pair_w, indptr, out_indices, out_data,
+             out_b):
     """Fill the PPE straight into CSR arrays (``indptr`` from :func:`ppe_row_lengths`).
 
     Fluid row ``i`` [F 17, F 20-21]: the Morris Laplacian [F 11-12] with
@@ -368,9 +369,11 @@ def ppe_fill(x, vol, alpha, source, L, consistent, f_start, f_j, w_start, w_j, n
     instability of the staggered scheme)::
 
         (1 + sum_f k_wf) p_w + sum_f (k_wf - w_wf) p_f = rho (g - a~_w) . rbar_w,
-        k_wf = -implicit[w] V_f grad W_wf . rbar_w,  rbar_w = sum_f w_wf (x_w - x_f)
+        k_wf = -implicit[w] V_f (pair_w[f] grad W_wf) . rbar_w,  rbar_w = sum_f w_wf (x_w - x_f)
 
-    A wall particle with no fluid neighbour gets ``p_w = 0``.
+    (``pair_w[f]``: the pair weights of the interface force, the identity but on the
+    waterline rows, ``IncompressibleFluid.interface_weights``). A wall particle with no fluid
+    neighbour gets ``p_w = 0``.
     Columns are sorted within each row.
     """
     for i in prange(nf + nw):
@@ -451,7 +454,9 @@ def ppe_fill(x, vol, alpha, source, L, consistent, f_start, f_j, w_start, w_j, n
                     wt = kernel_w(kind, r, h) / sw
                 kwf = 0.0
                 if implicit[w] > 0.0 and r > 1e-12 * h:
-                    kwf = -implicit[w] * vol[j] * kernel_dw(kind, r, h) / r * (d0 * rb0 + d1 * rb1)
+                    m0 = pair_w[j, 0, 0] * d0 + pair_w[j, 0, 1] * d1
+                    m1 = pair_w[j, 1, 0] * d0 + pair_w[j, 1, 1] * d1
+                    kwf = -implicit[w] * vol[j] * kernel_dw(kind, r, h) / r * (m0 * rb0 + m1 * rb1)
                 diag += kwf
                 out_indices[e] = j
                 out_data[e] = diag_ref * (kwf - wt)

@@ -166,6 +166,7 @@ class IncompressibleFluid:
         self.g_b = np.tile(self.gravity, (self.nw, 1))
         self.rigid = None  # free bodies whose rigid-body motion the PPE solves for
         self.g_star = None  # with them: the boundary rows' acceleration in div u*
+        self._pair_w = None  # interface_weights: the pair weights (identity but waterline)
         # rho c / rho_s on structure rows whose acceleration the PPE takes implicitly
         self.implicit = np.zeros(self.nw)
         # stacked fluid + boundary arrays seen by the loops (boundary after the fluid)
@@ -315,7 +316,8 @@ class IncompressibleFluid:
         G = np.zeros((3 * len(mass), n))
         rigid_mode_terms(self.x_all[nb0:], self.vol_all[nb0:], self.x_all[:self.nf],
                          self.vol_all[:self.nf], sf_start, sf_j, self.h, self.kernel,
-                         self.grad_scale, body_of, centre, nb0, rbar, G)
+                         self.grad_scale, self.interface_weights(), body_of, centre, nb0, rbar,
+                         G)
         lever = self.x_all[nb0:] - centre[body_of]
         c = self.diag_ref * self.rho
         U = np.zeros((n, 3 * len(mass)))
@@ -616,14 +618,44 @@ class IncompressibleFluid:
                                       floor_row, rg, out)
         if form == "interface_conservative" and self.ns:
             # the rows beside a structure take the pair form [F 10], the one that balances the
-            # interface force [F 46-47] (under a uniform pressure both vanish there)
-            rows = self._structure_rows(jmax)
+            # interface force [F 46-47] (under a uniform pressure both vanish there); the
+            # waterline rows keep the corrected form (interface_weights)
+            rows = self._structure_rows(jmax) & ~self.waterline_rows()
             cons = np.empty_like(out)
             K.pressure_gradient(self.x_all, p, self.vol_all, self.ff_start, self.ff_j, self.nf,
                                 self.h, self.kernel, self.grad_scale, jmax, floored, floor_row,
                                 rg, cons)
             out[rows] = cons[rows]
         return out
+
+    def waterline_rows(self):
+        """Free-surface rows (``p = 0``: ``alpha = 0`` [F 21]) beside a coupled structure
+        (``pressure_gradient = "interface_conservative"``). On them the pair form [F 10] is
+        the difference form (``p_i = 0``), but over a support cut by the surface it gives
+        half the hydrostatic gradient, and the surface particles slid down a structure's
+        face; they take the corrected form [F 7, F 13] over the fluid and the walls and the
+        same correction ``L_i`` on their pair terms with the structure
+        (:meth:`interface_weights`): together the corrected gradient over the whole
+        support, exact for a linear pressure, with action = reaction kept pair by pair."""
+        if self.cfg.pressure_gradient != "interface_conservative" or not self.ns:
+            return np.zeros(self.nf, dtype=bool)
+        return self._structure_rows(self.nf + self.nw - self.ns) & (self.body["alpha"] == 0.0)
+
+    def interface_weights(self):
+        """Per fluid row, the matrix ``W_f`` that weights its pair terms with the structure
+        [F 46-47] (``coupling._kernels.pair_pressure_forces_m``, the rigid and implicit rows
+        of the solve): the identity, or ``L_f / c`` on the waterline rows
+        (:meth:`waterline_rows`), so that ``c W_f = L_f`` there."""
+        if self._pair_w is None or len(self._pair_w) != self.nf:
+            self._pair_w = np.tile(np.eye(2), (self.nf, 1, 1))
+            self._pair_w_rows = np.zeros(0, dtype=np.int64)
+        self._pair_w[self._pair_w_rows] = np.eye(2)
+        rows = np.flatnonzero(self.waterline_rows())
+        if len(rows):
+            self._correction_matrices()
+            self._pair_w[rows] = self.L[rows] / self.grad_scale
+        self._pair_w_rows = rows
+        return self._pair_w
 
     def _structure_rows(self, jmax):
         """Fluid rows with a coupled structure particle (global index ``>= jmax``) among
@@ -734,7 +766,8 @@ class IncompressibleFluid:
                           self.ff_start, self.ff_j,
                           self.wf_start, self.wf_j, self.nf, self.nw, self.h, self.kernel,
                           self.eta2, self.lap_scale, self.diag_ref, self.rho,
-                          self._wall_body_force(), self.implicit)
+                          self._wall_body_force(), self.implicit,
+                          self.interface_weights() if self.ns else None)
         if self.cfg.surface_offset > 0.0:
             self._offset_surface_rows(A, rhs, alpha)
         if self.incremental_step:

@@ -46,13 +46,16 @@ class PPEStats:
 
 
 def assemble(x, vol, alpha, source, L, consistent, f_start, f_j, w_start, w_j, nf, nw, h, kind,
-             eta2, lap_scale, diag_ref, rho, gb, implicit=None):
+             eta2, lap_scale, diag_ref, rho, gb, implicit=None, pair_w=None):
     """Build the PPE as a ``scipy.sparse.csr_array`` and its right-hand side.
 
     Rows are counted first (:func:`_kernels.ppe_row_lengths`), then filled in place
     (:func:`_kernels.ppe_fill`); see there for the equations.
     """
     n = nf + nw
+    if pair_w is None:  # plain pair terms (the identity) where rows are implicit
+        implicit_rows = implicit is not None and bool(np.any(implicit > 0.0))
+        pair_w = np.tile(np.eye(2), (nf, 1, 1)) if implicit_rows else np.zeros((0, 2, 2))
     row_len = np.empty(n, dtype=np.int64)
     K.ppe_row_lengths(alpha, f_start, w_start, nf, nw, row_len)
     indptr = np.zeros(n + 1, dtype=np.int64)
@@ -63,7 +66,7 @@ def assemble(x, vol, alpha, source, L, consistent, f_start, f_j, w_start, w_j, n
     b = np.empty(n, dtype=np.float64)
     K.ppe_fill(x, vol, alpha, source, L, consistent, f_start, f_j, w_start, w_j, nf, nw, h, kind,
                eta2, lap_scale, diag_ref, rho, gb,
-               np.zeros(nw) if implicit is None else implicit, indptr, indices, data, b)
+               np.zeros(nw) if implicit is None else implicit, pair_w, indptr, indices, data, b)
     # pyamg's C++ routines take int32 index arrays
     A = sp.csr_array((data, indices.astype(np.int32), indptr.astype(np.int32)), shape=(n, n))
     A.has_sorted_indices = True

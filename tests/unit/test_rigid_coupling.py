@@ -40,15 +40,24 @@ def _scene(tmp_path, text=CASE):
     return Simulation(load_config(p))
 
 
-def test_generalised_force_is_the_structure_force(tmp_path, rng):
+THROUGH_SURFACE = CASE.replace('pressure_gradient = "conservative"',
+                               'pressure_gradient = "interface_conservative"').replace(
+    "origin = [0.18, 0.12], size = [0.05, 0.05]", "origin = [0.18, 0.27], size = [0.05, 0.05]")
+
+
+@pytest.mark.parametrize("text", [CASE, THROUGH_SURFACE], ids=["submerged", "waterline"])
+def test_generalised_force_is_the_structure_force(tmp_path, rng, text):
     """For any pressure field, ``G p`` (the rows' x force, y force and torque about each
     body's centre of mass) equals the sum of the pair forces [F 46-47] that
     ``FsiCoupling.forces`` hands the bodies, and their moment: the solve and the structure
-    see the same force."""
-    sim = _scene(tmp_path)
+    see the same force (also with body b through the free surface, where the waterline
+    rows weight their pair terms by L_f)."""
+    sim = _scene(tmp_path, text)
     fl, c = sim.fluid, sim.coupling
     c.before_fluid()
     fl.update_neighbors()
+    fl.detect_free_surface()
+    assert fl.waterline_rows().any() == (text is THROUGH_SURFACE)
     fl.p_all[:] = rng.uniform(-1e3, 3e3, len(fl.p_all))
     U, G = fl._rigid_terms()
     c.forces()
