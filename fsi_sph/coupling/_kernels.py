@@ -19,31 +19,11 @@ from fsi_sph.sph.kernels import kernel_dw, kernel_w
 
 
 @njit(cache=True, parallel=True)
-def pair_pressure_forces(xd, pd, vold, xs, ps, vols, nbr_start, nbr_j, h, kind, scale, out_f):
-    """Force on each destination particle ``i`` from its source neighbours ``j`` [F 46-47]:
-    ``out_f[i] = -scale sum_j V_i V_j (p_i + p_j) grad_i W_ij`` (N per metre of depth)."""
-    for i in prange(xd.shape[0]):
-        f0 = 0.0
-        f1 = 0.0
-        for k in range(nbr_start[i], nbr_start[i + 1]):
-            j = nbr_j[k]
-            d0 = xd[i, 0] - xs[j, 0]
-            d1 = xd[i, 1] - xs[j, 1]
-            r = math.sqrt(d0 * d0 + d1 * d1)
-            if r < 1e-12 * h:
-                continue
-            c = vols[j] * (pd[i] + ps[j]) * kernel_dw(kind, r, h) / r
-            f0 += c * d0
-            f1 += c * d1
-        out_f[i, 0] = -scale * vold[i] * f0
-        out_f[i, 1] = -scale * vold[i] * f1
-
-
-@njit(cache=True, parallel=True)
-def pair_pressure_forces_m(xd, pd, vold, xs, ps, vols, nbr_start, nbr_j, h, kind, scale, M,
-                           m_on_dest, out_f):
-    """:func:`pair_pressure_forces` with the pair's gradient weighted by the matrix ``M`` of
-    its fluid particle: ``out_f[i] = -scale sum_j V_i V_j (p_i + p_j) M_f grad_i W_ij``,
+def pair_pressure_forces(xd, pd, vold, xs, ps, vols, nbr_start, nbr_j, h, kind, scale, M,
+                         m_on_dest, out_f):
+    """Force on each destination particle ``i`` from its source neighbours ``j`` [F 46-47],
+    the pair's gradient weighted by the matrix ``M`` of its fluid particle:
+    ``out_f[i] = -scale sum_j V_i V_j (p_i + p_j) M_f grad_i W_ij`` (N per metre of depth),
     ``f = i`` when ``m_on_dest`` (destinations are the fluid rows) else ``f = j``. ``M_f = I``
     gives the plain pair term; ``scale M_f = L_f`` [F 13-14] the corrected one of the
     waterline rows (``IncompressibleFluid.interface_weights``). The same matrix on both sides
@@ -81,7 +61,7 @@ def rigid_mode_terms(x_s, vol_s, x_f, vol_f, sf_start, sf_j, h, kind, scale, M, 
         T_b = sum_{i in b} sum_f (r_i x G_if) (p_i + p_f),  r_i = x_i - xc[b]
 
     (column ``s_off + i`` for structure particle ``i``, ``f`` for fluid particle ``f``;
-    ``M_f`` the pair weights of :func:`pair_pressure_forces_m`, the identity but on the
+    ``M_f`` the pair weights of :func:`pair_pressure_forces`, the identity but on the
     waterline rows, so that the solve sees the force the body then receives). A
     fluid particle beside two structure particles collects from both, so this loop scatters
     and runs serially (one pass over the interface pairs)."""

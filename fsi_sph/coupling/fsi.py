@@ -34,13 +34,17 @@ def substep_count(dt_f, dt_s, fixed=None):
 
 
 def interface_forces(x_s, p_s, vol_s, x_f, p_f, vol_f, sf_start, sf_j, fs_start, fs_j, h,
-                     kind, scale, out_on_structure, out_on_fluid):
+                     kind, scale, out_on_structure, out_on_fluid, weights=None):
     """Pairwise interface pressure forces [F 46-47] on the structure rows (from their fluid
-    neighbours ``sf``) and on the fluid rows (from their structure neighbours ``fs``)."""
+    neighbours ``sf``) and on the fluid rows (from their structure neighbours ``fs``), each
+    pair's kernel gradient weighted by its fluid particle's matrix ``weights[f]`` (the
+    identity if None; ``IncompressibleFluid.interface_weights``)."""
+    if weights is None:
+        weights = np.tile(np.eye(2), (len(x_f), 1, 1))
     K.pair_pressure_forces(x_s, p_s, vol_s, x_f, p_f, vol_f, sf_start, sf_j, h, kind, scale,
-                           out_on_structure)
+                           weights, False, out_on_structure)
     K.pair_pressure_forces(x_f, p_f, vol_f, x_s, p_s, vol_s, fs_start, fs_j, h, kind, scale,
-                           out_on_fluid)
+                           weights, True, out_on_fluid)
 
 
 def advance_structure(body, dt_f, n_sub):
@@ -148,19 +152,10 @@ class FsiCoupling:
         k0 = fl.wf_start[fl.n_walls]
         sf = (fl.wf_start[fl.n_walls:] - k0, fl.wf_j[k0:])
         fs = transpose_csr(*sf, fl.nf)
-        if fl.waterline_rows().any():  # their pair terms weighted by L_f (waterline_rows)
-            w = fl.interface_weights()
-            p_s, p_f = fl.p_all[nb0:], fl.p_all[:fl.nf]
-            v_s, v_f = fl.vol_all[nb0:], fl.vol_all[:fl.nf]
-            c = fl.grad_scale
-            K.pair_pressure_forces_m(x_s, p_s, v_s, x_f, p_f, v_f, *sf, fl.h, fl.kernel, c, w,
-                                     False, self.on_structure)
-            K.pair_pressure_forces_m(x_f, p_f, v_f, x_s, p_s, v_s, *fs, fl.h, fl.kernel, c, w,
-                                     True, self.on_fluid)
-            return self.on_fluid
+        # the waterline rows weight their pair terms by L_f (fluid.waterline_rows)
         interface_forces(x_s, fl.p_all[nb0:], fl.vol_all[nb0:], x_f, fl.p_all[:fl.nf],
                          fl.vol_all[:fl.nf], *sf, *fs, fl.h, fl.kernel, fl.grad_scale,
-                         self.on_structure, self.on_fluid)
+                         self.on_structure, self.on_fluid, fl.interface_weights())
         return self.on_fluid
 
     def advance(self, dt):

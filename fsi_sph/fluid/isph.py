@@ -643,7 +643,7 @@ class IncompressibleFluid:
 
     def interface_weights(self):
         """Per fluid row, the matrix ``W_f`` that weights its pair terms with the structure
-        [F 46-47] (``coupling._kernels.pair_pressure_forces_m``, the rigid and implicit rows
+        [F 46-47] (``coupling._kernels.pair_pressure_forces``, the rigid and implicit rows
         of the solve): the identity, or ``L_f / c`` on the waterline rows
         (:meth:`waterline_rows`), so that ``c W_f = L_f`` there."""
         if self._pair_w is None or len(self._pair_w) != self.nf:

@@ -77,13 +77,7 @@ def test_still_water_against_a_structure_through_the_surface(tmp_path):
 def test_interface_conservative_rows(tmp_path, rng):
     """The gradient is the pair form [F 10] exactly on the fluid rows with a structure
     particle among their neighbours and the corrected form [F 7, F 13] on the others."""
-    p = tmp_path / "c.toml"
-    p.write_text(CASE.format(gradient="interface_conservative", y0=0.06, t_end=0.01))
-    sim = Simulation(load_config(p))
-    f = sim.fluid
-    f.update_neighbors()
-    f.detect_free_surface()
-    f._correction_matrices()
+    _, f = _prepared(tmp_path, 0.06)
     field = rng.uniform(0.0, 2e3, len(f.p_all))
     mixed = f._pressure_gradient(field, np.empty((f.nf, 2)))
     rows = f._structure_rows(f.nf + f.nw - f.ns)
@@ -97,9 +91,11 @@ def test_interface_conservative_rows(tmp_path, rng):
         assert not np.allclose(mixed[~sel], ref[~sel])
 
 
-def _through_the_surface(tmp_path):
+def _prepared(tmp_path, y0):
+    """The scene with the square at ``y0`` (0.06 submerged, 0.15 through the surface), its
+    neighbours, free surface and correction matrices at the start."""
     p = tmp_path / "c.toml"
-    p.write_text(CASE.format(gradient="interface_conservative", y0=0.15, t_end=0.01))
+    p.write_text(CASE.format(gradient="interface_conservative", y0=y0, t_end=0.01))
     sim = Simulation(load_config(p))
     f = sim.fluid
     f.update_neighbors()
@@ -112,7 +108,7 @@ def test_waterline_rows_take_the_corrected_gradient_over_the_whole_support(tmp_p
     """On the free-surface rows beside the structure (p = 0) the fluid's gradient plus the
     interface pair terms weighted by L_i is the corrected gradient [F 7, F 13] over every
     neighbour, structure particles included: exact for a linear pressure field."""
-    sim, f = _through_the_surface(tmp_path)
+    sim, f = _prepared(tmp_path, 0.15)
     rows = f.waterline_rows()
     assert 0 < rows.sum() < f._structure_rows(f.nf + f.nw - f.ns).sum()
     grad = np.array([120.0, -9810.0])
@@ -140,7 +136,7 @@ def _dw(f, r):
 
 
 def test_waterline_pair_terms_keep_action_equal_to_reaction(tmp_path, rng):
-    sim, f = _through_the_surface(tmp_path)
+    sim, f = _prepared(tmp_path, 0.15)
     assert f.waterline_rows().any()
     f.p_all[:] = rng.uniform(0.0, 2e3, len(f.p_all))
     f.p_all[:f.nf][f.waterline_rows()] = 0.0

@@ -21,14 +21,14 @@ def interface(rng):
                 h=1.2 * dx)
 
 
-def _forces(d, scale=1.0):
+def _forces(d, scale=1.0, weights=None):
     r = 2 * d["h"]
     sf = find_neighbors(d["xs"], d["xf"], r)
     fs = find_neighbors(d["xf"], d["xs"], r)
     on_s = np.zeros_like(d["xs"])
     on_f = np.zeros_like(d["xf"])
     interface_forces(d["xs"], d["ps"], d["vs"], d["xf"], d["pf"], d["vf"], *sf, *fs, d["h"], 0,
-                     scale, on_s, on_f)
+                     scale, on_s, on_f, weights)
     return on_s, on_f
 
 
@@ -39,16 +39,26 @@ def test_action_equals_reaction(interface):
     assert np.all(np.abs(total) < 1e-12 * np.abs(on_s).sum())
 
 
-def test_matches_dense_formula(interface):
-    """F_s = -sum_f V_s V_f (p_s + p_f) grad_s W_sf over all pairs within 2h."""
+@pytest.mark.parametrize("weighted", [False, True])
+def test_matches_dense_formula(interface, rng, weighted):
+    """F_s = -sum_f V_s V_f (p_s + p_f) M_f grad_s W_sf over all pairs within 2h (M_f the
+    identity, or any matrix per fluid particle: the waterline rows' L_f / c); the fluid's
+    share is its opposite, pair by pair."""
     d = interface
-    on_s, _ = _forces(d)
+    nf = len(d["xf"])
+    m = np.tile(np.eye(2), (nf, 1, 1))
+    if weighted:
+        m += 0.3 * rng.standard_normal((nf, 2, 2))
+    on_s, on_f = _forces(d, weights=m if weighted else None)
     diff = d["xs"][:, None] - d["xf"][None]
     r = np.linalg.norm(diff, axis=2)
     gw = np.where((r < 2 * d["h"])[..., None],
                   cubic_dw(r, d["h"])[..., None] * diff / r[..., None], 0.0)
-    want = -np.einsum("s,f,sf,sfa->sa", d["vs"], d["vf"], d["ps"][:, None] + d["pf"][None], gw)
-    np.testing.assert_allclose(on_s, want, rtol=1e-12, atol=1e-12 * np.abs(want).max())
+    gw = np.einsum("fab,sfb->sfa", m, gw)
+    pair = -np.einsum("s,f,sf,sfa->sfa", d["vs"], d["vf"], d["ps"][:, None] + d["pf"][None], gw)
+    tol = 1e-12 * np.abs(pair).sum(axis=1).max()
+    np.testing.assert_allclose(on_s, pair.sum(axis=1), rtol=1e-12, atol=tol)
+    np.testing.assert_allclose(on_f, -pair.sum(axis=0), rtol=1e-12, atol=tol)
 
 
 def test_uniform_pressure_pushes_normal_to_interface(interface):
