@@ -83,18 +83,29 @@ class SphSection(_Model):
 
 
 class Material(_Model):
-    """Elastic material of a TLSPH body [F 37-40], plane strain (default) or plane stress."""
+    """Material of a solid body: elastic TLSPH [F 37-40], plane strain (default) or plane
+    stress; or ``rigid`` (a free body moved as a rigid body by the fluid's force and its
+    weight: only ``rho0``)."""
 
-    model: Literal["stvk", "hooke_almansi", "neo_hookean"] = Field(
+    model: Literal["stvk", "hooke_almansi", "neo_hookean", "rigid"] = Field(
         "stvk", description="St Venant-Kirchhoff, the source's Hooke law on the Almansi strain, "
-        "or compressible Neo-Hookean")
+        "compressible Neo-Hookean, or rigid (no deformation; needs a fluid to move it)")
     rho0: Positive = Field(description="reference density (kg/m^3)")
-    E: Positive = Field(description="Young's modulus (Pa)")
-    nu: Annotated[float, Field(gt=-1.0, lt=0.5)] = Field(
-        description="Poisson's ratio, in (-1, 0.5)")
+    E: Positive | None = Field(None, description="Young's modulus (Pa); elastic models")
+    nu: Annotated[float, Field(gt=-1.0, lt=0.5)] | None = Field(
+        None, description="Poisson's ratio, in (-1, 0.5); elastic models")
     plane: Literal["strain", "stress"] = Field(
         "strain", description="2D idealisation: plane strain (PHYSICS.md §4) or plane stress "
         "(sigma_zz = 0: lambda replaced by 2 lambda mu/(lambda + 2 mu))")
+
+    @model_validator(mode="after")
+    def _elastic_constants(self):
+        if self.model != "rigid" and (self.E is None or self.nu is None):
+            missing = " and ".join(k for k in ("E", "nu") if getattr(self, k) is None)
+            raise ValueError(f"model = {self.model!r} needs {missing}")
+        if self.model == "rigid" and (self.E is not None or self.nu is not None):
+            raise ValueError("model = 'rigid' takes no E or nu (it does not deform)")
+        return self
 
 
 class ArtificialViscosity(_Model):
@@ -656,6 +667,15 @@ class Config(_Model):
                                  ": a particle would meet two images of one neighbour")
         if self.walls is not None and self.fluid is None:
             raise ValueError("[walls] without [fluid]: walls only bound the fluid")
+        for name, sec in self.solid.items():
+            if sec.material.model != "rigid":
+                continue
+            if sec.clamp:
+                raise ValueError(f"solid.{name}: a rigid body cannot be clamped (a fixed "
+                                 f"rigid obstacle is a [walls] box)")
+            if self.coupling is None or name not in self.coupling.structures:
+                raise ValueError(f"solid.{name}: a rigid body moves only under a fluid's "
+                                 f"force; list it in coupling.structures")
         fluid_kinds = ("pressure", "surge_front", "fluid_stats")
         if self.coupling is not None:
             if self.fluid is None:
@@ -741,8 +761,9 @@ class Config(_Model):
                 mods.append("implicit_viscosity")
             if self.fluid.periodic_x is not None:
                 mods.append("periodic_x")
-        for name in self.solid:
-            mods.append(f"tlsph_elastic_solid:{name}")
+        for name, sec in self.solid.items():
+            kind = "rigid_body" if sec.material.model == "rigid" else "tlsph_elastic_solid"
+            mods.append(f"{kind}:{name}")
         if self.coupling is not None:
             mods.append("fsi_coupling:" + ",".join(self.coupling.structures)
                         + f"({self.structure_scheme()})")

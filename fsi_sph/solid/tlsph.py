@@ -47,12 +47,16 @@ class ElasticBody:
         self.name = name
         self.cfg = cfg
         mat = cfg.material
-        self.model = MODELS[mat.model]
+        self.rigid = mat.model == "rigid"  # moved as a rigid body (_rigid_substep)
         self.rho0 = mat.rho0
-        self.youngs = mat.E
         self.plane = mat.plane
-        self.lam, self.mu = lame(mat.E, mat.nu, mat.plane)
-        self.c0 = wave_speed(mat.E, mat.nu, mat.rho0, mat.plane)
+        if self.rigid:  # no stress: F stays I, P stays 0
+            self.model, self.youngs, self.lam, self.mu, self.c0 = MODELS["stvk"], 0.0, 0.0, 0.0, 0.0
+        else:
+            self.model = MODELS[mat.model]
+            self.youngs = mat.E
+            self.lam, self.mu = lame(mat.E, mat.nu, mat.plane)
+            self.c0 = wave_speed(mat.E, mat.nu, mat.rho0, mat.plane)
         self.h = sph.h_over_dx * dx
         self.kernel = KERNELS[sph.kernel]
         self.gravity = np.asarray(gravity, dtype=np.float64)
@@ -121,7 +125,10 @@ class ElasticBody:
 
     # ------------------------------------------------------------------ stepping
     def stable_dt(self):
-        """dt_S = C h / (c_s + |v|max) (PHYSICS §4)."""
+        """dt_S = C h / (c_s + |v|max) (PHYSICS §4); a rigid body has no limit of its own
+        (one sub-step per fluid step)."""
+        if self.rigid:
+            return math.inf
         vmax = math.sqrt(float(np.max(np.einsum("ij,ij->i", self.body["v"], self.body["v"]))))
         return self.cfg.cfl * self.h / (self.c0 + vmax)
 
@@ -151,6 +158,9 @@ class ElasticBody:
 
         The external force ``f_ext`` (N/m, e.g. from the fluid) is held over the step.
         """
+        if self.rigid:
+            self._rigid_substep(dt)
+            return
         b = self.body
         half = 0.5 * dt
         xi = self.cfg.damping
@@ -159,6 +169,27 @@ class ElasticBody:
         self.update_stress()
         self._accelerations()
         K.kick(b["v"], b["a"], self.gravity, b["f_ext"], b["m"], xi, half, b["free"])
+
+    def _rigid_substep(self, dt):
+        """A rigid body (``material.model = "rigid"``) under its weight and the held external
+        force ``f_ext``: the centre of mass and the rotation about it advance by
+        semi-implicit Euler (``V += dt F / M``, ``omega += dt T / I``, then the positions by
+        the new ``V`` and an exact rotation by ``dt omega``), so the particles keep their
+        distances exactly; ``a`` (every acceleration but the external ones) is 0."""
+        b = self.body
+        m, x, v, f = b["m"], b["x"], b["v"], b["f_ext"]
+        mass = m.sum()
+        xc = m @ x / mass
+        r = x - xc
+        inertia = float(m @ np.einsum("ij,ij->i", r, r))
+        vc = m @ v / mass + dt * (f.sum(axis=0) / mass + self.gravity)
+        omega = float(m @ (r[:, 0] * v[:, 1] - r[:, 1] * v[:, 0])) / inertia
+        omega += dt * float(np.sum(r[:, 0] * f[:, 1] - r[:, 1] * f[:, 0])) / inertia
+        c, s = math.cos(dt * omega), math.sin(dt * omega)
+        r = np.column_stack([c * r[:, 0] - s * r[:, 1], s * r[:, 0] + c * r[:, 1]])
+        x[:] = xc + dt * vc + r
+        v[:] = vc + omega * np.column_stack([-r[:, 1], r[:, 0]])
+        b["a"][:] = 0.0
 
     # ------------------------------------------------------------------ diagnostics
     def kinetic_energy(self):

@@ -24,6 +24,8 @@ implicit scheme's consistent velocity, 2026-12-01e) the neutral body blows up af
 acceleration under the fluid's generalised force (a rank-3 term per body in the PPE matrix):
 neutral body |v| <= 2e-4 m/s; heavy body 3.13 m/s^2 (+1.7 %); a light one (rho_s = rho_f / 2,
 added mass 2.4 times its own, where the explicit scheme blows up) -2.99 against -2.91 m/s^2.
+A rigid material (``material.model = "rigid"``, the same rows, the body moved rigidly):
+``rigid_body`` below.
 """
 
 import numpy as np
@@ -55,17 +57,24 @@ rtol = 1.0e-8
 layers = 3
 tanks = [{{ origin = [0.0, 0.0], size = [0.6, 0.7] }}]
 [solid.body]
-material = {{ model = "stvk", rho0 = {rho_s}, E = 5.0e7, nu = 0.3 }}
+material = {{ model = "{model}", rho0 = {rho_s}{elastic} }}
 blocks = [{{ origin = [0.27, 0.27], size = [0.06, 0.06] }}]
 [coupling]
 structures = ["body"]
 structure_acceleration = "{scheme}"
 """
 
+def _case(rho_s, scheme):
+    """The case text; scheme ``rigid_body``: a rigid material (``auto`` coupling)."""
+    if scheme == "rigid_body":
+        return CASE.format(rho_s=rho_s, scheme="auto", model="rigid", elastic="")
+    return CASE.format(rho_s=rho_s, scheme=scheme, model="stvk", elastic=", E = 5.0e7, nu = 0.3")
+
+
 def _sink(tmp_path, rho_s, scheme, t_end):
     """Mean vertical velocity of the body after each fluid step up to ``t_end``."""
     p = tmp_path / "body.toml"
-    p.write_text(CASE.format(rho_s=rho_s, scheme=scheme))
+    p.write_text(_case(rho_s, scheme))
     sim = Simulation(load_config(p))
     body = sim.structures["body"].body
     t, vy = [], []
@@ -77,7 +86,7 @@ def _sink(tmp_path, rho_s, scheme, t_end):
     return np.array(t), np.array(vy)
 
 
-SCHEMES = ["rigid", "explicit"]
+SCHEMES = ["rigid", "explicit", "rigid_body"]
 
 
 @pytest.mark.parametrize("scheme", SCHEMES)
@@ -111,14 +120,14 @@ def test_light_body_rises_with_its_added_mass(tmp_path):
 
 def test_implicit_scheme_refuses_a_free_body(tmp_path):
     p = tmp_path / "body.toml"
-    p.write_text(CASE.format(rho_s=RHO_F, scheme="implicit"))
+    p.write_text(_case(RHO_F, "implicit"))
     with pytest.raises(ConfigError, match="solid.body has no clamp"):
         load_config(p)
 
 
 def test_auto_scheme_picks_rigid_for_a_free_body(tmp_path):
     p = tmp_path / "body.toml"
-    p.write_text(CASE.format(rho_s=RHO_F, scheme="auto"))
+    p.write_text(_case(RHO_F, "auto"))
     cfg = load_config(p)
     assert cfg.structure_scheme() == "rigid"
     assert Simulation(cfg).coupling.scheme == "rigid"
