@@ -33,7 +33,11 @@ A second, numerical reference: the SPH-FEM curves labelled Yang et al. 2012 (an 
 2D solution, peak 34.1 mm at 0.102 s), recorded as ``values.rms_x_mm_yang`` /
 ``rms_y_mm_yang``. The plane-strain rung follows them within 2.4 / 0.7 mm RMS over 0-0.38 s
 (the plane-stress rungs, softer, 5.4 / 1.6 mm), while every rung stays ~10 mm below the
-experiment after its peak.
+experiment after its peak. A 10-across gate (dx 0.5 mm, measured once, to 0.15 s) peaks at
+40.22 mm at 0.1125 s. The hourglass control matters at these thicknesses (4 across: none
+44.7 mm, but the uncontrolled gate alone is 50-100 % too soft statically; the conservative
+penalty 35.5 mm, far too stiff); the default (Ganzenmueller, 10) is within 7 % of beam
+theory in the linear regime (docs/session_notes_2026-12-01e.md).
 """
 
 from __future__ import annotations
