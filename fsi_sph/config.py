@@ -717,15 +717,18 @@ class Config(_Model):
         scheme = self.coupling.structure_acceleration
         if scheme != "auto":
             return scheme
-        clamped = [bool(self.solid[n].clamp) for n in self.coupling.structures]
-        return "implicit" if all(clamped) else "rigid"
+        return "rigid" if self._clamped_and_free()[1] else "implicit"
+
+    def _clamped_and_free(self):
+        """The coupled structures' names, clamped and free."""
+        names = self.coupling.structures
+        return ([n for n in names if self.solid[n].clamp],
+                [n for n in names if not self.solid[n].clamp])
 
     def _check_structure_scheme(self):
         """Each scheme's structures: ``implicit`` clamped ones (a free bulky body blows up
         with it), ``rigid`` free ones; ``auto`` cannot mix them."""
-        names = self.coupling.structures
-        clamped = [n for n in names if self.solid[n].clamp]
-        free = [n for n in names if not self.solid[n].clamp]
+        clamped, free = self._clamped_and_free()
         scheme = self.coupling.structure_acceleration
         if scheme == "rigid" and clamped:
             raise ValueError(

@@ -167,6 +167,7 @@ class IncompressibleFluid:
         self.rigid = None  # free bodies whose rigid-body motion the PPE solves for
         self.g_star = None  # with them: the boundary rows' acceleration in div u*
         self._pair_w = None  # interface_weights: the pair weights (identity but waterline)
+        self._waterline = None  # waterline_rows, once per free-surface detection
         # rho c / rho_s on structure rows whose acceleration the PPE takes implicitly
         self.implicit = np.zeros(self.nw)
         # stacked fluid + boundary arrays seen by the loops (boundary after the fluid)
@@ -415,6 +416,7 @@ class IncompressibleFluid:
             self.x_all, self.vol_all, self.ff_start, self.ff_j, self.nf, self.h, self.kernel,
             b["divr"], b["grad_c"], b["sigma"], b["alpha"], b["class"], b["normal"],
             scan=self.cfg.surface_scan, isolated=self.cfg.surface_isolated_rows)
+        self._waterline = None  # waterline_rows: found anew for this alpha
 
     def _correction_matrices(self):
         """``self.L`` [F 13-14] at the current stacked positions, computed once per set of
@@ -636,10 +638,15 @@ class IncompressibleFluid:
         face; they take the corrected form [F 7, F 13] over the fluid and the walls and the
         same correction ``L_i`` on their pair terms with the structure
         (:meth:`interface_weights`): together the corrected gradient over the whole
-        support, exact for a linear pressure, with action = reaction kept pair by pair."""
-        if self.cfg.pressure_gradient != "interface_conservative" or not self.ns:
-            return np.zeros(self.nf, dtype=bool)
-        return self._structure_rows(self.nf + self.nw - self.ns) & (self.body["alpha"] == 0.0)
+        support, exact for a linear pressure, with action = reaction kept pair by pair.
+        Found once per free-surface detection and neighbour update."""
+        if self._waterline is None or len(self._waterline) != self.nf:
+            if self.cfg.pressure_gradient != "interface_conservative" or not self.ns:
+                self._waterline = np.zeros(self.nf, dtype=bool)
+            else:
+                near = self._structure_rows(self.nf + self.nw - self.ns)
+                self._waterline = near & (self.body["alpha"] == 0.0)
+        return self._waterline
 
     def interface_weights(self):
         """Per fluid row, the matrix ``W_f`` that weights its pair terms with the structure
@@ -709,7 +716,7 @@ class IncompressibleFluid:
             self.fluid_of[rows] = np.where(src < self.nf, src, -1)
             self.wall_rows[rows] = src >= self.nf
         # counted anew for these lists: _fluid_neighbour_counts, _structure_rows, _row_of
-        self._n_fluid = self._near_structure = self._row_of_pairs = None
+        self._n_fluid = self._near_structure = self._row_of_pairs = self._waterline = None
         self.no_rows = np.zeros(n, dtype=np.bool_)
         self.no_rg = np.zeros((n, 2))
         self.floor_rg = np.zeros((n, 2))

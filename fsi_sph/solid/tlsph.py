@@ -175,7 +175,9 @@ class ElasticBody:
         force ``f_ext``: the centre of mass and the rotation about it advance by
         semi-implicit Euler (``V += dt F / M``, ``omega += dt T / I``, then the positions by
         the new ``V`` and an exact rotation by ``dt omega``), so the particles keep their
-        distances exactly; ``a`` (every acceleration but the external ones) is 0."""
+        distances exactly; ``a`` (every acceleration but the external ones) is 0. Newton-Euler
+        for a rigid body in the plane (not in PHYSICS.md; tested against the analytic
+        rotation and translation, tests/unit/test_rigid_body.py)."""
         b = self.body
         m, x, v, f = b["m"], b["x"], b["v"], b["f_ext"]
         mass = m.sum()
