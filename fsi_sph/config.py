@@ -373,6 +373,9 @@ class PPESection(_Model):
         "matrix (coarse levels kept)")
 
 
+SHIFT_DEFAULTS = {"fickian": 2.0, "fickian_fixed": 0.1, "centroid": 0.1}
+
+
 class ShiftingSection(_Model):
     """Particle shifting [F 22-33]; free- and near-surface particles shift tangentially only.
 
@@ -384,12 +387,22 @@ class ShiftingSection(_Model):
     model: Literal["fickian", "fickian_fixed", "centroid"] = Field(
         "fickian", description="shift law")
     coefficient: Positive = Field(
-        2.0, description="A for fickian (dimensionless, 1-6), D / h^2 for fickian_fixed "
-        "(about 0.01-0.5), eps for centroid (0.1-0.2)")
+        2.0, description="A for fickian (dimensionless, 1-6; default 2), D / h^2 for "
+        "fickian_fixed (about 0.01-0.5; default 0.1), eps for centroid (0.1-0.2; default "
+        "0.1)")
     max_shift: Annotated[float, Field(gt=0.0, le=0.5)] = Field(
         0.2, description="cap on |dr| in units of h")
     taylor_correction: bool = Field(
         True, description="correct velocity and pressure by phi += dr . grad phi [F 33]")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _default_coefficient(cls, data):
+        """The coefficient's default follows the law: one number for all three took
+        fickian_fixed to D = 2 h^2 per step, which blew still water up in 0.2 s."""
+        if isinstance(data, dict) and "coefficient" not in data:
+            data = {**data, "coefficient": SHIFT_DEFAULTS.get(data.get("model", "fickian"), 2.0)}
+        return data
 
 
 class SmagorinskySection(_Model):
@@ -447,6 +460,24 @@ class FluidSection(_Model):
         "granular layers 4-5 particles thick hold their profile: 39 -> 8 %), but at a "
         "granular front one of 19 draws threw a particle (4.7 m/s, above the inviscid "
         "front); set by the mu(I) cases, measured in docs/session_notes_2026-12-01c.md")
+    laplacian: Literal["consistent", "morris"] = Field(
+        "consistent", description="PPE Laplacian of the fluid rows [F 11-12, F 20]: "
+        "`consistent`: the Morris sum made exact for linear pressure fields on every row "
+        "(its first-moment error taken out with the corrected gradient [F 13-14], "
+        "_kernels.ppe_fill); `morris`: that correction only on rows with a truncated "
+        "support, the plain Morris sum (an M-matrix) in the interior. With `morris` the "
+        "hydrostatic pressure seen at displaced particles is not linear, which drives a "
+        "growing oscillation of rows against each other: still water blew up after 2.5-3.5 s "
+        "(docs/session_notes_2026-12-01f.md)")
+    position_update: Literal["damped", "trapezoid"] = Field(
+        "damped", description="particle move of the correction step: `trapezoid` "
+        "r^{n+1} = r^n + dt (u^n + u^{n+1}) / 2 [F 19]; `damped` r^{n+1} = r^n + dt u^{n+1} + "
+        "dt (u^{n+1} - u^n) / 2. The pressure is solved at r^n (not at the predicted r* of "
+        "[F 15]), and with forces at r^n the trapezoid amplifies every oscillation by "
+        "(1 + (omega dt)^2 / 2)^(1/2) per step (short free-surface waves grew by 2 % per "
+        "step in a tank at rest); `damped` takes it down by about (omega dt)^2 / 4 per step, "
+        "as the predicted positions of [F 15] would (negligible for waves with "
+        "omega dt << 1)")
     cfl: Annotated[float, Field(gt=0.0, le=0.5)] = Field(
         0.2, description="advective limit dt = cfl h / |u|max [F 48]")
     dt_max: Positive = Field(1.0, description="upper bound on the fluid time step (s)")

@@ -23,6 +23,7 @@ PLATE = CASES / "oscillating_plate.toml"
 GATE = CASES / "dam_break_elastic_gate.toml"
 SLOPE2 = CASES / "slope_2_cohesive.toml"
 DAM = CASES / "dam_break.toml"
+TANK = CASES / "hydrostatic_tank.toml"
 T_PLATE = 0.254  # s, first-mode period of the plate (thin-plate theory)
 
 
@@ -176,6 +177,12 @@ def rows():
             "umbrella scan)",
             lambda f: fastest_below(f, 2.0 * math.sqrt(2.0 * 9.81 * 1.0)),
             quick_overrides=["case.t_end=0.55"]),
+        Row("still_water_10s", TANK, ["case.t_end=10.0", "case.output_every=2.0"],
+            "water at rest in a tank for 10 s at the force limit's time step (dt ~ 0.012 s): "
+            "stays at rest, max speed below 1e-3 sqrt(g H) = 3.1 mm/s (it blew up after "
+            "2.9 s with the plain Morris Laplacian and the trapezoidal move, 2026-12-01f)",
+            lambda f: fastest_below(f, 1e-3 * math.sqrt(9.81 * 1.0)),
+            quick_overrides=["case.t_end=5.0"]),
         Row("slope_high_cohesion", SLOPE2,
             ["soil.clay.material.cohesion=110000.0", "case.t_end=2.0", "case.output_every=0.5"],
             "cohesive slope with 10 x the cohesion (stands; tensile instability)",

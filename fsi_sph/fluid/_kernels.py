@@ -703,13 +703,15 @@ def nearest_source(x, nbr_start, nbr_j, i, j_lo, j_hi, normals):
 
 @njit(cache=True, parallel=True)
 def boundary_guard(x, nbr_start, nbr_j, nf, j_lo, j_hi, normals, v_b, gap, dt, v_old, v,
-                   out_dv, out_row, stop=False):
+                   out_dv, out_row, stop=False, w_new=0.5):
     """Kinematic guard at a boundary (sources ``j_lo <= j < j_hi``: the walls, or the moving
     structures; ``normals`` and boundary velocities ``v_b`` indexed from ``j_lo``).
 
     A fluid particle closer than ``gap`` (along the normal) to its nearest boundary particle
     loses the part of its velocity relative to that particle that points into the boundary
-    (in ``v_old`` and ``v``). A particle farther out whose step ``dt (v_old + v) / 2`` would
+    (in ``v_old`` and ``v``). A particle farther out whose step
+    ``dt ((1 - w_new) v_old + w_new v)`` (the fluid's position update: 0.5 for the
+    trapezoid [F 19], 1.5 for the damped one) would
     end closer than ``gap`` has both normal parts scaled so that it ends at ``gap`` (the
     step is swept: a particle cannot jump over the guard's band in one long step). A
     free-surface particle has a Dirichlet PPE row, which imposes no continuity constraint,
@@ -734,7 +736,7 @@ def boundary_guard(x, nbr_start, nbr_j, nf, j_lo, j_hi, normals, v_b, gap, dt, v
         un = (v[i, 0] - v_b[b, 0]) * n0 + (v[i, 1] - v_b[b, 1]) * n1
         un_old = (v_old[i, 0] - v_b[b, 0]) * n0 + (v_old[i, 1] - v_b[b, 1]) * n1
         if dn >= gap:
-            step = 0.5 * dt * (un + un_old)
+            step = dt * (w_new * un + (1.0 - w_new) * un_old)
             if dn + step >= gap:
                 continue
             cut = 1.0 if stop else 1.0 - (gap - dn) / step  # step < gap - dn <= 0

@@ -10,7 +10,10 @@ One fluid step ``dt`` (the order :meth:`Simulation.step` calls the verbs in):
 4. ``predict``: ``u* = u^n + dt ((nu + nu_T) lap u^n + g)`` [F 16].
 5. ``solve_pressure``: the PPE [F 17, F 20] for fluid and wall pressures (one sparse system).
 6. ``correct``: ``u^{n+1} = u* - dt grad p / rho`` [F 18] and
-   ``r^{n+1} = r^n + dt (u^n + u^{n+1}) / 2`` [F 19].
+   ``r^{n+1} = r^n + dt u^{n+1} + dt (u^{n+1} - u^n) / 2`` (``fluid.position_update =
+   "damped"``, the default) or ``r^n + dt (u^n + u^{n+1}) / 2`` [F 19] (``"trapezoid"``).
+   With the pressure solved at ``r^n`` (below) the trapezoid amplifies oscillations
+   (docs/fluid.md, "Position update").
 
 With ``fluid.projection = "incremental"`` (pressure correction: Goda 1979, J. Comput. Phys.
 30:76; van Kan 1986, SIAM J. Sci. Stat. Comput. 7:870) steps 4-6 become::
@@ -25,7 +28,9 @@ the viscous solve, resisted only in the next step) is of the size of the increme
 
 The PPE is evaluated at ``r^n`` rather than at the predicted ``r* = r^n + dt u^n`` [F 15]; the
 two differ by O(dt) within one first-order projection step, and ``r^n`` reuses the step's
-neighbour list (the choice of Cummins & Rudman 1999).
+neighbour list (the choice of Cummins & Rudman 1999). With forces at ``r^n`` the trapezoidal
+move [F 19] is not stable for oscillations (short free-surface waves grew), hence the damped
+move by default.
 
 Density and particle mass are constant: ``vol = dx^2``, ``m = rho0 dx^2``.
 """
@@ -195,6 +200,8 @@ class IncompressibleFluid:
         self.ppe = PressureSolver(cfg.ppe)
         self.last_stats = PPEStats()
         self.v_old = np.zeros((self.nf, 2))
+        # weight of u^{n+1} in the position update (the rest on u^n)
+        self.w_new = 0.5 if cfg.position_update == "trapezoid" else 1.5
         self.v_star = np.zeros((self.nf, 2))
         self.div = np.zeros(self.nf)
         self.grad_p = np.zeros((self.nf, 2))
@@ -496,7 +503,7 @@ class IncompressibleFluid:
         if whi > wlo:
             K.boundary_guard(self.x_all, self.ff_start, self.ff_j, nf, wlo, whi,
                              self.wall_n[:whi - nf], self.v_b[:whi - nf], wgap, dt, v_old, v,
-                             self._guard_dv, self._guard_row, stop)
+                             self._guard_dv, self._guard_row, stop, self.w_new)
 
     def _predict(self, dt):
         if self.incremental and not self.p_known:
@@ -766,6 +773,8 @@ class IncompressibleFluid:
         # rows whose kernel support is truncated (free surface, near it, or beside the end
         # of a wall) get the consistent (corrected) Laplacian and pressure gradient
         self.consistent = (b["class"] != K.INTERIOR) | (b["divr"] < DIVR_FULL)
+        if self.cfg.laplacian == "consistent":  # every row (FluidSection.laplacian)
+            self.consistent[:] = True
         alpha = b["alpha"]
         if self.incremental_step:  # drops: free-surface rows (_carried_pressure)
             alpha = np.where(self.drops, 0.0, alpha)
@@ -1060,7 +1069,9 @@ class IncompressibleFluid:
             self._collide(v)
         b["a"][:] = (v - self.v_old) / dt
         self._guard(dt, v)
-        b["x"] += 0.5 * dt * (self.v_old + v)
+        # [F 19] (trapezoid, w_new = 0.5) or FluidSection.position_update = "damped"
+        # (r^n + dt u^{n+1} + dt (u^{n+1} - u^n) / 2, w_new = 1.5)
+        b["x"] += dt * (self.w_new * v + (1.0 - self.w_new) * self.v_old)
         if self.incremental_step and self.cfg.density_relaxation > 0.0:
             self._relaxation_shift(dt)
 
@@ -1120,7 +1131,7 @@ class IncompressibleFluid:
         if shi > slo:
             K.boundary_guard(self.x_all, self.ff_start, self.ff_j, nf, slo, shi,
                              self.wall_n[slo - nf:], self.v_b[slo - nf:], sgap, dt, self.v_old,
-                             v, self._guard_dv, self._guard_row)
+                             v, self._guard_dv, self._guard_row, False, self.w_new)
             self.guard_force[:] = 0.0
             hit = self._guard_row >= 0
             if hit.any():

@@ -5,8 +5,10 @@ dx 6 mm; ``material.model = "rigid"``, so ``auto`` coupling takes the rigid rows
 shifting and the collision model as in the coupled cases. Measured 2026-12-01e to 3 s: it
 heaves by +-1.6 mm about 2.1 mm below the nominal draft (a third of a spacing: the particle
 box's displaced volume) at about its natural period (0.65 s with its added mass, estimated),
-its sideways drift stays under 1 mm to 2 s; after that a flow at its submerged corners grows
-and it drifts (47 mm by 2.9 s), not yet understood. Before the waterline rows (2026-12-01e)
+its sideways drift stays under 1 mm to 2 s; after that it rolls over (2026-12-01f: a square
+of density ratio 0.5 is metacentrically unstable upright, GM = d/2 + b^2/(12 d) - b/2 =
+-0.01 m; it turns to a corner-down position, tests/consistency/test_floating_stability.py),
+which the earlier notes took for a drift. Before the waterline rows (2026-12-01e)
 the same scene failed at 0.37-0.58 s; with an elastic box (E = 2e7 Pa) instead of the rigid
 material its particles spread under the corner flow. This test covers the first second.
 """

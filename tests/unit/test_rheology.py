@@ -228,6 +228,7 @@ def test_periodic_uniform_shear_stays_uniform():
     f.body["v"][:, 0] = 50.0 * (f.body["x"][:, 1] + 0.0005)
     for _ in range(20):
         sim.step()
+    f.update_neighbors()  # the wrap comes with each step's neighbour update, before the move
     x, v = f.body["x"], f.body["v"]
     assert x[:, 0].min() >= 0.0 and x[:, 0].max() < 0.012
     # (a small settling, O(dt) and the same without periodicity, is the scheme's)
