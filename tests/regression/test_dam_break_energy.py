@@ -1,0 +1,46 @@
+"""Energy of the dam break in its tank (cases/dam_break.toml at dx = 0.05 m, a / dx = 20).
+
+Kinetic plus potential energy of the water, E0 = 19 620 J/m at rest (found 2026-12-01f):
+during the collapse (to 0.75 s, before the front meets the far wall) it stays within
++2.6 % of E0 (+1.5 % at cfl 0.05, +1.2 % at dx 0.025: a discretisation error that
+converges); after the impacts it grows without bound: +6.7 % at 1 s, +56 % at 3 s, +5.5
+times E0 at 6 s, carried by a growing spray of particles at up to 32 m/s (the inviscid
+front of the column: 8.86 m/s) and up to 17 m high (tank 2.5 m, open top). The same with
+the old Laplacian and move (+3.6 times E0 at 6 s). Not yet traced (docs/session notes
+2026-12-01f, "Noticed").
+"""
+
+import numpy as np
+import pytest
+
+from fsi_sph.config import load_config
+from fsi_sph.simulation import Simulation
+from validation.common import CASES
+
+
+def energy_history(t_end):
+    sim = Simulation(load_config(CASES / "dam_break.toml",
+                                 ["case.dx=0.05", f"case.t_end={t_end}"]))
+    f = sim.fluid.body
+    m = f["m"]
+
+    def energy():
+        return float(0.5 * np.sum(m * np.einsum("ij,ij->i", f["v"], f["v"]))
+                     + 9.81 * np.sum(m * f["x"][:, 1]))
+
+    e0 = energy()
+    out = []
+    while sim.t < t_end - 1e-9:
+        sim.step(t_end - sim.t, to_end=True)
+        out.append(energy() / e0)
+    return np.array(out)
+
+
+def test_collapse_does_not_gain_energy():
+    assert energy_history(0.75).max() < 1.05  # 1.026 measured
+
+
+@pytest.mark.xfail(reason="known defect: after the front's impacts the spray gains energy "
+                   "(+56 % of E0 by 3 s), 2026-12-01f", strict=True)
+def test_energy_stays_bounded_after_the_impacts():
+    assert energy_history(3.0).max() < 1.05
