@@ -394,6 +394,11 @@ class ShiftingSection(_Model):
         0.2, description="cap on |dr| in units of h")
     taylor_correction: bool = Field(
         True, description="correct velocity and pressure by phi += dr . grad phi [F 33]")
+    taylor_energy_cap: bool = Field(
+        True, description="the Taylor-corrected velocity is scaled back to the particle's "
+        "speed before the shift where it would be faster: the shift makes no kinetic energy "
+        "(without it the dam break's spray gained energy without bound, +56 % by 3 s; "
+        "docs/session_notes_2026-12-01f.md)")
 
     @model_validator(mode="before")
     @classmethod

@@ -32,4 +32,5 @@ class Shifting:
     def apply(self, dr, grad_p, grad_v, lo, hi, x, p, v):
         """Move the particles and (if enabled) Taylor-correct ``p`` and ``v`` [F 33], within
         the neighbourhood's range ``[lo, hi]`` (:func:`_kernels.neighbour_bounds`)."""
-        K.apply_shift(dr, grad_p, grad_v, self.cfg.taylor_correction, lo, hi, x, p, v)
+        K.apply_shift(dr, grad_p, grad_v, self.cfg.taylor_correction, lo, hi, x, p, v,
+                      self.cfg.taylor_energy_cap)

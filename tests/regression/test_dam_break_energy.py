@@ -6,21 +6,22 @@ during the collapse (to 0.75 s, before the front meets the far wall) it stays wi
 converges); after the impacts it grows without bound: +6.7 % at 1 s, +56 % at 3 s, +5.5
 times E0 at 6 s, carried by a growing spray of particles at up to 32 m/s (the inviscid
 front of the column: 8.86 m/s) and up to 17 m high (tank 2.5 m, open top). The same with
-the old Laplacian and move (+3.6 times E0 at 6 s). Not yet traced (docs/session notes
-2026-12-01f, "Noticed").
+the old Laplacian and move (+3.6 times E0 at 6 s). Traced to the Taylor correction of the
+shift [F 33]: the corrected velocity of a particle in the spray came out faster than the
+particle was. With ``fluid.shifting.taylor_energy_cap`` (default) the energy peaks at
+1.04 E0 and falls (0.95 E0 at 3 s); without the Taylor correction at all 1.08, then 0.78.
 """
 
 import numpy as np
-import pytest
 
 from fsi_sph.config import load_config
 from fsi_sph.simulation import Simulation
 from validation.common import CASES
 
 
-def energy_history(t_end):
+def energy_history(t_end, extra=()):
     sim = Simulation(load_config(CASES / "dam_break.toml",
-                                 ["case.dx=0.05", f"case.t_end={t_end}"]))
+                                 ["case.dx=0.05", f"case.t_end={t_end}", *extra]))
     f = sim.fluid.body
     m = f["m"]
 
@@ -40,7 +41,8 @@ def test_collapse_does_not_gain_energy():
     assert energy_history(0.75).max() < 1.05  # 1.026 measured
 
 
-@pytest.mark.xfail(reason="known defect: after the front's impacts the spray gains energy "
-                   "(+56 % of E0 by 3 s), 2026-12-01f", strict=True)
 def test_energy_stays_bounded_after_the_impacts():
-    assert energy_history(3.0).max() < 1.05
+    """1.04 E0 at most with the energy cap of the shift's Taylor correction; without it the
+    spray gained energy (1.58 E0 by 3 s), so this test tells the two apart."""
+    assert energy_history(3.0).max() < 1.06
+    assert energy_history(3.0, ["fluid.shifting.taylor_energy_cap=false"]).max() > 1.3

@@ -253,6 +253,25 @@ def test_apply_shift_taylor_corrects_linear_fields():
     assert_allclose(v, [[-0.2, 0.0], [0.05, 0.0]])
 
 
+def test_taylor_energy_cap_makes_no_kinetic_energy():
+    """``energy_cap``: a correction that would make a particle faster is scaled back to its
+    speed before the shift (direction kept); one that slows it is left as it is."""
+    x = np.zeros((2, 2))
+    dr = np.array([[0.5, 0.0], [-0.5, 0.0]])
+    gv = np.zeros((2, 2, 2))
+    gv[:, 0, 0] = 1.0  # du/dx = 1: the shift +0.5 speeds particle 0 up, -0.5 slows 1 down
+    gv[:, 1, 0] = 1.0  # dv/dx = 1
+    lo, hi = np.full((2, 3), -np.inf), np.full((2, 3), np.inf)
+    for cap in (False, True):
+        v = np.array([[1.0, 0.0], [1.0, 0.0]])
+        K.apply_shift(dr, np.zeros((2, 2)), gv, True, lo, hi, x.copy(), np.zeros(2), v, cap)
+        if cap:
+            assert_allclose(v[0], np.array([1.5, 0.5]) / np.hypot(1.5, 0.5), atol=1e-14)
+        else:
+            assert_allclose(v[0], [1.5, 0.5])
+        assert_allclose(v[1], [0.5, -0.5])  # slower than before: untouched either way
+
+
 def test_taylor_correction_stays_within_the_neighbourhood_range(perturbed):
     """Linear fields are corrected exactly (the limiter does not act inside their range); an
     outlier (one particle far faster than its neighbours, shifted away from them) is not
