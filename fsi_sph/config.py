@@ -387,7 +387,7 @@ class ShiftingSection(_Model):
     model: Literal["fickian", "fickian_fixed", "centroid"] = Field(
         "fickian", description="shift law")
     coefficient: Positive = Field(
-        2.0, description="A for fickian (dimensionless, 1-6; default 2), D / h^2 for "
+        description="A for fickian (dimensionless, 1-6; default 2), D / h^2 for "
         "fickian_fixed (about 0.01-0.5; default 0.1), eps for centroid (0.1-0.2; default "
         "0.1)")
     max_shift: Annotated[float, Field(gt=0.0, le=0.5)] = Field(
@@ -405,8 +405,10 @@ class ShiftingSection(_Model):
     def _default_coefficient(cls, data):
         """The coefficient's default follows the law: one number for all three took
         fickian_fixed to D = 2 h^2 per step, which blew still water up in 0.2 s."""
-        if isinstance(data, dict) and "coefficient" not in data:
-            data = {**data, "coefficient": SHIFT_DEFAULTS.get(data.get("model", "fickian"), 2.0)}
+        if isinstance(data, dict) and "coefficient" not in data:  # (an unknown law: the
+            # model field's own error names the allowed ones)
+            law = data.get("model", "fickian")
+            data = {**data, "coefficient": SHIFT_DEFAULTS.get(law, SHIFT_DEFAULTS["fickian"])}
         return data
 
 

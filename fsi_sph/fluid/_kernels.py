@@ -654,12 +654,13 @@ def apply_shift(dr, grad_p, grad_v, taylor, lo, hi, x, p, v, energy_cap=False):
             p[i] = min(max(pn, lo[i, 2]), hi[i, 2])
             v0 = min(max(v0, lo[i, 0]), hi[i, 0])
             v1 = min(max(v1, lo[i, 1]), hi[i, 1])
-            s_old = v[i, 0] * v[i, 0] + v[i, 1] * v[i, 1]
-            s_new = v0 * v0 + v1 * v1
-            if energy_cap and s_new > s_old:
-                c = math.sqrt(s_old / s_new)
-                v0 *= c
-                v1 *= c
+            if energy_cap:
+                s_old = v[i, 0] * v[i, 0] + v[i, 1] * v[i, 1]
+                s_new = v0 * v0 + v1 * v1
+                if s_new > s_old:
+                    c = math.sqrt(s_old / s_new)
+                    v0 *= c
+                    v1 *= c
             v[i, 0] = v0
             v[i, 1] = v1
 

@@ -772,9 +772,11 @@ class IncompressibleFluid:
         self._correction_matrices()
         # rows whose kernel support is truncated (free surface, near it, or beside the end
         # of a wall) get the consistent (corrected) Laplacian and pressure gradient
-        self.consistent = (b["class"] != K.INTERIOR) | (b["divr"] < DIVR_FULL)
-        if self.cfg.laplacian == "consistent":  # every row (FluidSection.laplacian)
-            self.consistent[:] = True
+        # (FluidSection.laplacian = "consistent": every row)
+        if self.cfg.laplacian == "consistent":
+            self.consistent = np.ones(self.nf, dtype=np.bool_)
+        else:
+            self.consistent = (b["class"] != K.INTERIOR) | (b["divr"] < DIVR_FULL)
         alpha = b["alpha"]
         if self.incremental_step:  # drops: free-surface rows (_carried_pressure)
             alpha = np.where(self.drops, 0.0, alpha)
