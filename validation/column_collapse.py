@@ -44,7 +44,7 @@ import math
 
 import numpy as np
 
-from validation.soil_common import advance, build, deposit_toe, profile_plot, record
+from validation.soil_common import advance, build, deposit_toe, record
 
 log = logging.getLogger(__name__)
 
@@ -201,6 +201,10 @@ def run_one(dx, t_end, out_dir, exp):
     wall, psteps = advance(sim, t_end, on_step=grab)
     b = body.body
     x, x0 = b["x"], b["x0"]
+    # the final state, for re-plotting and re-measuring without a re-run (git-ignored)
+    (out_dir / "runs").mkdir(parents=True, exist_ok=True)
+    np.savez_compressed(out_dir / "runs" / f"final_dx{dx:g}.npz", x=x, x0=x0, eps_p=b["eps_p"],
+                        eps_p_onset=onset["eps_p"], t_onset=onset["t"])
     disp = np.linalg.norm(x - x0, axis=1)
     pts_on, _ = failure_line(x0, onset["eps_p"], dx)
     angle_on = line_angle_deg(pts_on)
@@ -244,31 +248,60 @@ def run_one(dx, t_end, out_dir, exp):
 
 
 def plot_one(path, dx, b, onset, exp, pts, pts_on, runout_c, angle, angle_on, exp_angle):
-    """Final deposit over the experiment's; initial configuration at failure onset."""
+    """Final deposit over the experiment's (bars that moved / did not), and the initial
+    configuration coloured by the plastic strain at failure onset."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
     surf, exp_line = exp
-    xs = np.arange(0.0, b["x"][:, 0].max() + 2 * dx, 0.25 * dx)
-    fin_lines = [("experiment: final surface", surf),
-                 (f"experiment: failure line ({exp_angle:.1f} deg)", exp_line),
-                 ("fsi_sph: deposit height (volume-equivalent)",
-                  np.column_stack([xs, deposit_height(b["x"], dx, xs)])),
-                 ("2 mm contour toe: fsi_sph / experiment",
-                  np.array([[runout_c, 0.0], [runout_c, 0.01], [np.nan, np.nan],
-                            [RUNOUT_EXP, 0.0], [RUNOUT_EXP, 0.01]]))]
+    x, x0 = b["x"], b["x0"]
+    moved = np.linalg.norm(x - x0, axis=1) >= STATIC_DISP
+    fig, axes = plt.subplots(2, 1, figsize=(10, 6.2), layout="constrained")
+    ax = axes[0]
+    ax.scatter(x[moved, 0], x[moved, 1], s=2, c="#e8b04a", linewidths=0,
+               label=f"fsi_sph: moved >= {1e3 * STATIC_DISP:g} mm")
+    ax.scatter(x[~moved, 0], x[~moved, 1], s=2, c="#4a6fa5", linewidths=0,
+               label="fsi_sph: static")
+    xs = np.arange(0.0, x[:, 0].max() + 2 * dx, 0.25 * dx)
+    ax.plot(xs, deposit_height(x, dx, xs), "-", color="#b5551d", lw=1.2,
+            label="fsi_sph: deposit height (volume-equivalent)")
+    ax.plot(surf[:, 0], surf[:, 1], "k-", lw=2.0, label="experiment: final surface")
+    ax.plot(exp_line[:, 0], exp_line[:, 1], "k--", lw=2.0,
+            label=f"experiment: failure line ({exp_angle:.1f} deg)")
     if _line(pts) is not None:
-        fin_lines.insert(2, (f"fsi_sph: failure line, moved < {1e3 * STATIC_DISP:g} mm "
-                             f"({angle:.1f} deg)", _line(pts)))
-    on_lines = [(f"Roscoe 45 + psi/2 = {45 + PSI_DEG / 2:.1f} deg", _ray(45 + PSI_DEG / 2)),
-                (f"Coulomb 45 + phi/2 = {45 + PHI_DEG / 2:.1f} deg", _ray(45 + PHI_DEG / 2))]
+        ax.plot(*_line(pts).T, "r-", lw=2.0, label=f"fsi_sph: failure line ({angle:.1f} deg)")
+    ax.plot([runout_c] * 2, [0.0, 0.012], "r-", lw=2.0)
+    ax.plot([RUNOUT_EXP] * 2, [0.0, 0.012], "k-", lw=2.0)
+    ax.annotate(f"toe at 2 mm: {runout_c:.3f} m (experiment {RUNOUT_EXP} m)",
+                (runout_c, 0.012), xytext=(-150, 20), textcoords="offset points", fontsize=8,
+                arrowprops={"arrowstyle": "-", "color": "0.4"})
+    ax.set_title(f"Column collapse (Bui et al. 2008), dx = {dx:g} m: final deposit over the "
+                 "experiment's", fontsize=10)
+    ax.legend(fontsize=7, loc="upper right", markerscale=4)
+    ax = axes[1]
+    sc = ax.scatter(x0[:, 0], x0[:, 1], c=np.minimum(onset["eps_p"], 0.2), s=2,
+                    cmap="viridis", linewidths=0)
+    fig.colorbar(sc, ax=ax, label="plastic strain at onset (clipped at 0.2)", shrink=0.4,
+                 location="bottom", aspect=40)
+    ax.plot(*_ray(45 + PSI_DEG / 2).T, "k--", lw=1.5,
+            label=f"Roscoe 45 + psi/2 = {45 + PSI_DEG / 2:.1f} deg")
+    ax.plot(*_ray(45 + PHI_DEG / 2).T, "k-.", lw=1.5,
+            label=f"Coulomb 45 + phi/2 = {45 + PHI_DEG / 2:.1f} deg")
     if _line(pts_on) is not None:
-        on_lines.append((f"fitted failure line at onset ({angle_on:.1f} deg)", _line(pts_on)))
-    profile_plot(path, f"Column collapse (Bui et al. 2008), dx = {dx:g} m: run-out at the 2 mm "
-                 f"contour {runout_c:.3f} m (experiment {RUNOUT_EXP} m)",
-                 [("final deposit over the experiment's, accumulated plastic strain "
-                   "(clipped at 1)", b["x"], np.minimum(b["eps_p"], 1.0), "eps_p", fin_lines),
-                  (f"initial configuration coloured by the plastic strain at onset, t = "
-                   f"{onset['t']:.3f} s (clipped at 0.2)", b["x0"],
-                   np.minimum(onset["eps_p"], 0.2), "eps_p", on_lines)],
-                 xlim=(0.0, max(0.46, runout_c + 0.02)), ylim=(-0.005, 0.11))
+        ax.plot(*_line(pts_on).T, "r-", lw=2.0, label=f"fitted onset line ({angle_on:.1f} deg)")
+    ax.set_title(f"initial configuration, plastic strain at failure onset (t = {onset['t']:.3f} "
+                 "s)", fontsize=10)
+    ax.legend(fontsize=7, loc="upper right")
+    for ax in axes:
+        ax.set_xlim(0.0, max(0.46, runout_c + 0.02))
+        ax.set_ylim(-0.003, 0.106)
+        ax.set_aspect("equal")
+        ax.set_xlabel("x (m)")
+        ax.set_ylabel("y (m)")
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
 
 
 def validate(quick=False, data_dir="../shared/validation_data", out_dir=None):

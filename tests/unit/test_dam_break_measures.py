@@ -8,9 +8,10 @@ from validation.dam_break import ONSET_SHIFT_T, front_errors, front_speed, speed
 
 
 def _data():
-    """An 'experiment' whose clock starts ONSET_SHIFT_T late: Z = 1 + 2 (T + shift)."""
+    """An 'experiment' whose clock runs ONSET_SHIFT_T ahead of the water: Z = 1 + 2 (T - shift)
+    beside our Z = 1 + 2 T."""
     T = np.linspace(0.3, 2.3, 15)
-    return {"exp": (T, 1.0 + 2.0 * (T + ONSET_SHIFT_T))}
+    return {"exp": (T, 1.0 + 2.0 * (T - ONSET_SHIFT_T))}
 
 
 def test_onset_shift_is_the_published_correction():
@@ -18,14 +19,14 @@ def test_onset_shift_is_the_published_correction():
     assert ONSET_SHIFT_T == pytest.approx(0.1237, abs=1e-4)
 
 
-def test_onset_corrected_error_vanishes_for_a_late_clock():
+def test_onset_corrected_error_vanishes_for_an_early_clock():
     T_sim = np.linspace(0.0, 3.0, 301)
     Z_sim = 1.0 + 2.0 * T_sim
     plain = front_errors(T_sim, Z_sim, _data())
     onset = front_errors(T_sim, Z_sim, _data(), ONSET_SHIFT_T, "_onset")
     assert onset["front_pct_exp_onset"] == pytest.approx(0.0, abs=1e-9)
-    # without the correction the simulated front trails: 2 shift / Z at the first point
-    z_exp0 = 1.0 + 2.0 * (0.3 + ONSET_SHIFT_T)
+    # without the correction the simulated front leads: 2 shift / Z at the first point
+    z_exp0 = 1.0 + 2.0 * (0.3 - ONSET_SHIFT_T)
     assert plain["front_pct_exp"] == pytest.approx(100 * 2 * ONSET_SHIFT_T / z_exp0, rel=1e-9)
     assert "front_pct" in plain and "front_pct" not in onset
 
