@@ -14,15 +14,13 @@ import os
 import sys
 from pathlib import Path
 
+from fsi_sph.errors import ConfigError, SimulationError, UsageError
+
 log = logging.getLogger("fsi_sph")
 
 REPO = Path(__file__).resolve().parents[1]
 DEFAULT_CASE = REPO / "cases" / "dam_break_elastic_gate.toml"
 VALIDATION_DIR = REPO / "validation"
-
-
-class UsageError(Exception):
-    """Bad input given on the command line (exit code 2)."""
 
 
 def _parser():
@@ -82,9 +80,9 @@ def _set_threads(n):
 
 
 def cmd_run(args):
-    from fsi_sph.config import ConfigError, load_config, load_config_from_run
+    from fsi_sph.config import load_config, load_config_from_run
     from fsi_sph.output import read_restart
-    from fsi_sph.simulation import Simulation, SimulationError
+    from fsi_sph.simulation import Simulation
 
     if args.max_steps is not None and args.max_steps < 0:
         raise UsageError(f"--max-steps {args.max_steps}: must be >= 0")
@@ -238,7 +236,6 @@ def _single_threaded_blas():
 
 def main(argv=None):
     _single_threaded_blas()
-    from fsi_sph.config import ConfigError
 
     args = _parser().parse_args(argv)
     logging.basicConfig(level=args.log_level.upper(), format="%(levelname)s %(name)s: %(message)s")
@@ -253,7 +250,6 @@ def main(argv=None):
               file=sys.stderr)
         return 130
     except Exception as e:  # a failed run: say what happened, no traceback unless asked
-        from fsi_sph.simulation import SimulationError
 
         if isinstance(e, SimulationError):
             print(f"fsi-sph: run failed: {e}", file=sys.stderr)

@@ -26,14 +26,12 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from fsi_sph.errors import ConfigError
+
 Vec2 = tuple[float, float]
 Positive = Annotated[float, Field(gt=0.0)]
 NonNegative = Annotated[float, Field(ge=0.0)]
 Name = Annotated[str, Field(pattern=r"^[A-Za-z_][A-Za-z0-9_]*$", max_length=64)]
-
-
-class ConfigError(Exception):
-    """A case file or override that cannot be used; the message says where and why."""
 
 
 class _Model(BaseModel):

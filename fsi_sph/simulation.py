@@ -15,7 +15,8 @@ from collections import defaultdict
 from pathlib import Path
 
 from fsi_sph.config import Config
-from fsi_sph.guard import Guard, SimulationError
+from fsi_sph.errors import SimulationError
+from fsi_sph.guard import Guard
 from fsi_sph.probes import make_probe
 from fsi_sph.soil.drucker_prager import DruckerPragerBody
 from fsi_sph.solid.tlsph import ElasticBody

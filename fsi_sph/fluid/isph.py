@@ -308,10 +308,10 @@ class IncompressibleFluid:
 
             p_w - sum_f w_wf p_f + rho rbar_w . (F_b / M_b + (T_b / I_b) z x r_w) = 0
 
-        (:func:`fsi_sph.coupling._kernels.rigid_mode_terms`; ``g - a_w`` without the fluid's
+        (:func:`fsi_sph.sph.interface.rigid_mode_terms`; ``g - a_w`` without the fluid's
         share is 0: the body's weight gives it ``g``, its internal forces neither net force
         nor torque, and its deformation is not seen)."""
-        from fsi_sph.coupling._kernels import rigid_mode_terms
+        from fsi_sph.sph.interface import rigid_mode_terms
 
         _, body_of, mass, inertia, centre = self.rigid
         nb0 = self.nf + self.n_walls
@@ -657,7 +657,7 @@ class IncompressibleFluid:
 
     def interface_weights(self):
         """Per fluid row, the matrix ``W_f`` that weights its pair terms with the structure
-        [F 46-47] (``coupling._kernels.pair_pressure_forces``, the rigid and implicit rows
+        [F 46-47] (``sph.interface.pair_pressure_forces``, the rigid and implicit rows
         of the solve): the identity, or ``L_f / c`` on the waterline rows
         (:meth:`waterline_rows`), so that ``c W_f = L_f`` there."""
         if self._pair_w is None or len(self._pair_w) != self.nf:

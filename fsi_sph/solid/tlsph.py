@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from fsi_sph.config import ConfigError
+from fsi_sph.errors import ConfigError
 from fsi_sph.geometry import fill_shapes, in_shapes
 from fsi_sph.neighbors import find_neighbors
 from fsi_sph.particles import Body, FieldSpec

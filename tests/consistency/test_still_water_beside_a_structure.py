@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 from fsi_sph.config import load_config
-from fsi_sph.guard import SimulationError
+from fsi_sph.errors import SimulationError
 from fsi_sph.simulation import Simulation
 
 CASE = """

@@ -52,7 +52,7 @@ def test_momentum_exchange_sums_to_zero(tmp_path):
 def test_coupling_needs_conservative_gradient(tmp_path):
     import pytest
 
-    from fsi_sph.config import ConfigError
+    from fsi_sph.errors import ConfigError
 
     p = tmp_path / "c.toml"
     p.write_text(CASE.replace('pressure_gradient = "conservative"\n', ""))

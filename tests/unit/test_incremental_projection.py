@@ -188,7 +188,7 @@ def test_incremental_restart_is_bit_identical(tmp_path):
 
 
 def test_incremental_projection_with_coupling_is_refused():
-    from fsi_sph.config import ConfigError
+    from fsi_sph.errors import ConfigError
 
     text = """
 [case]

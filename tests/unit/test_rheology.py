@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from fsi_sph.config import ConfigError, load_config
+from fsi_sph.config import load_config
+from fsi_sph.errors import ConfigError
 from fsi_sph.fluid import _kernels as K
 from fsi_sph.fluid import rheology as R
 from fsi_sph.fluid import viscous as V

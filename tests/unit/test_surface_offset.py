@@ -70,7 +70,7 @@ def test_free_fall_keeps_the_surface_at_zero_pressure():
 
 
 def test_mu_i_half_spacing_is_not_counted_twice():
-    from fsi_sph.config import ConfigError
+    from fsi_sph.errors import ConfigError
 
     text = """
 [case]
@@ -111,7 +111,7 @@ def test_surface_pressure_is_the_bounded_extrapolation(factor, expected):
 
 
 def test_offset_with_the_scan_is_a_config_error():
-    from fsi_sph.config import ConfigError
+    from fsi_sph.errors import ConfigError
 
     text = f"""
 [case]
