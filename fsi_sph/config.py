@@ -510,8 +510,9 @@ class FluidSection(_Model):
         "standard", description="`standard`: the non-incremental projection [F 16-18], the "
         "PPE for p^{n+1}; `incremental`: the pressure-correction form (Goda 1979, van Kan "
         "1986): u* with the lagged pressure acceleration -grad p^n / rho, the PPE for the "
-        "increment phi = p^{n+1} - p^n, u^{n+1} = u* - dt grad phi / rho (fsi_sph/fluid/isph.py; "
-        "fixed walls and periodicity only, no coupled structures)")
+        "increment phi = p^{n+1} - p^n, u^{n+1} = u* - dt grad phi / rho "
+        "(fsi_sph/fluid/increments.py; fixed walls and periodicity only, no coupled "
+        "structures)")
     incremental_damping: Annotated[float, Field(ge=0.0, le=1.0)] = Field(
         0.0, description="incremental projection only: the fraction beta of the "
         "non-incremental pressure (the standard PPE of u* + dt grad p^n / rho) mixed into "
@@ -529,7 +530,7 @@ class FluidSection(_Model):
         "surface (PHYSICS.md [F 20-21] as written). "
         "With 0 a layer k particles thick carries the weight of k - 1/2 of them: 10 % short "
         "at 5 rows, which a frictional (mu(I)) material reads as 10 % less friction "
-        "(fsi_sph/fluid/isph.py _surface_pressure)")
+        "(fsi_sph/fluid/pressure_solve.py PressureSolve.surface_pressure)")
     surface_scan: bool = Field(
         True, description="free-surface detection: besides div r < 1.4 [F 21], a particle "
         "whose umbrella region along its outward normal holds no neighbour (Marrone et al. "
@@ -550,14 +551,14 @@ class FluidSection(_Model):
         "also holds a droplet beside a vertical wall; `mirror` (default): the hydrostatic term "
         "along the wall's normal only, and along the wall the fluid's own (fluid-only, lagged) "
         "pressure gradient: the same at rest, and a droplet or film on a vertical wall "
-        "falls (fsi_sph/fluid/isph.py _wall_body_force)")
+        "falls (fsi_sph/fluid/boundary.py BoundaryRows.wall_body_force)")
     wall_contact: Literal["projection", "inelastic"] = Field(
         "projection", description="`projection`: the pressure solve keeps the fluid out of "
         "the fixed walls (the kinematic guard acts on the corrected velocity only); "
         "`inelastic`: before the solve, a particle at or reaching half a spacing from a "
         "wall loses its velocity into it (a grain's contact, restitution 0), so that no "
-        "impulsive pressure stops it and kicks its neighbours (fsi_sph/fluid/isph.py "
-        "_inelastic_contact)")
+        "impulsive pressure stops it and kicks its neighbours (fsi_sph/fluid/"
+        "kinematic_guard.py KinematicGuard.inelastic_contact)")
     wall_suction: bool = Field(
         True, description="false: a fixed wall cannot pull a fluid particle: in the "
         "correction's pressure gradient a wall particle's pressure is at least the fluid "
@@ -566,8 +567,8 @@ class FluidSection(_Model):
         "pushed into it and its pressure grew 2.5-fold per step; fsi_sph/fluid/_kernels.py "
         "wall_floor). The floor acts on free-surface and near-surface particles only: "
         "beside interior particles it only rectified the pressure's particle-scale noise "
-        "into a push off the wall that lifted a thin flowing layer (fsi_sph/fluid/isph.py "
-        "_floor_rows)")
+        "into a push off the wall that lifted a thin flowing layer (fsi_sph/fluid/rows.py "
+        "RowRoles.floor_rows)")
     tension_cutoff: bool = Field(
         False, description="cohesionless material: negative pressures are set to 0 after "
         "every pressure solve, and the correction uses the cut-off field, so a region in "

@@ -97,7 +97,7 @@ class Simulation:
 
     @property
     def _dt_limit_columns(self):
-        return self.fluid is not None and self.fluid.viscosity_law is not None
+        return self.fluid is not None and self.fluid.viscous is not None
 
     def _timed(self, phase, fn, *args):
         t0 = time.perf_counter()
@@ -135,7 +135,7 @@ class Simulation:
                 coupling.before_fluid()
             self._timed("neighbours", fluid.update_neighbors)
             self._timed("free_surface", fluid.detect_free_surface)
-            if fluid.shifting is not None:
+            if fluid.motion.shifting is not None:
                 self._timed("shift", fluid.shift, dt)
             self._timed("predict", fluid.predict, dt)
             stats = self._timed("ppe", fluid.solve_pressure, dt)
@@ -287,7 +287,7 @@ class Simulation:
                     row += [st.iterations, st.residual, st.assemble_time, st.setup_time,
                             st.solve_time, float(st.rebuilt)]
                 if self._dt_limit_columns:
-                    lim, vs = self.fluid.dt_limits, self.fluid.viscous_stats
+                    lim, vs = self.fluid.dt_limits, self.fluid.viscous.stats
                     row += [lim["advective"], lim["viscous"], lim["force"], lim["nu_max"],
                             vs.iterations, vs.residual, float(vs.fallback)]
                 if self.coupling is not None:

@@ -111,7 +111,7 @@ def _ppe_system(dx=0.05):
     sim = Simulation(load_config(case, [f"case.dx={dx}"]))
     sim.step()
     f = sim.fluid
-    return sp.csr_matrix(f.A), f.rhs.copy(), f.nf
+    return sp.csr_matrix(f.pressure.A), f.pressure.rhs.copy(), f.nf
 
 
 def test_fgmres_solves_a_ppe_to_rtol_like_a_direct_solve():
@@ -185,10 +185,10 @@ def test_kept_hierarchy_with_the_current_finest_matrix_is_as_good_as_a_new_one()
     case = Path(__file__).resolve().parents[2] / "cases" / "dam_break.toml"
     sim = Simulation(load_config(case, ["case.dx=0.05"]))
     sim.step()
-    A0, b0, nf = sp.csr_matrix(sim.fluid.A), sim.fluid.rhs.copy(), sim.fluid.nf
+    A0, b0, nf = sp.csr_matrix(sim.fluid.pressure.A), sim.fluid.pressure.rhs.copy(), sim.fluid.nf
     for _ in range(10):
         sim.step()
-    A1, b1 = sp.csr_matrix(sim.fluid.A), sim.fluid.rhs.copy()
+    A1, b1 = sp.csr_matrix(sim.fluid.pressure.A), sim.fluid.pressure.rhs.copy()
     vc = {}
     for refresh in (False, True):
         ps = PressureSolver(PPESection(refresh_finest=refresh, rebuild_growth=100.0))

@@ -241,12 +241,12 @@ def test_structure_guard_gives_the_structure_the_opposite_impulse(tmp_path):
     near = (np.abs(x[:, 1] - 0.205) < 0.006) & (x[:, 0] > 0.1) & (x[:, 0] < 0.2)
     assert near.sum() >= 5
     x[near, 1] = 0.1985  # 0.35 dx from the block's surface particles: inside the guard gap
-    fluid._sync()
+    fluid.sync()
     v = np.zeros((fluid.nf, 2))
     v[near] = [0.3, -1.0]
     fluid.v_old[:] = v
     before = v.copy()
-    fluid._guard(dt, v)
+    fluid.kinematic_guard.velocities(dt, v)
     m = fluid.body["m"][:, None]
     assert np.all(v[near, 1] > -1.0)  # the inflow was cut
     fluid_impulse = np.sum(m * (v - before), axis=0)
