@@ -564,8 +564,8 @@ class FluidSection(_Model):
         "correction's pressure gradient a wall particle's pressure is at least the fluid "
         "particle's own, carried hydrostatically to it (at a granular front Adami's wall "
         "pressure fell below that of a particle pressed against the floor, which was then "
-        "pushed into it and its pressure grew 2.5-fold per step; fsi_sph/fluid/_kernels.py "
-        "wall_floor). The floor acts on free-surface and near-surface particles only: "
+        "pushed into it and its pressure grew 2.5-fold per step; fsi_sph/fluid/_kernels/"
+        "pressure.py wall_floor). The floor acts on free-surface and near-surface particles only: "
         "beside interior particles it only rectified the pressure's particle-scale noise "
         "into a push off the wall that lifted a thin flowing layer (fsi_sph/fluid/rows.py "
         "RowRoles.floor_rows)")

@@ -61,7 +61,7 @@ def test_coupling_needs_conservative_gradient(tmp_path):
 
 
 def test_implicit_structure_rows_match_formula(rng):
-    """Structure row w of the PPE with the implicit acceleration (fsi_sph/fluid/_kernels.py,
+    """Structure row w of the PPE with the implicit acceleration (fsi_sph/fluid/_kernels/pressure.py,
     ppe_fill): (1 + sum k) p_w + sum (k - w_wf) p_f = rho (g - a~) . rbar, scaled by diag_ref,
     k_wf = -imp V_f grad W_wf . rbar; with imp = 0 it is Adami's row."""
     from fsi_sph.fluid.ppe import assemble
