@@ -56,7 +56,7 @@ import math
 import numpy as np
 
 from fsi_sph.fluid import _kernels as K
-from fsi_sph.fluid import amg, free_surface
+from fsi_sph.fluid import amg, free_surface, krylov
 from fsi_sph.fluid.boundary import BoundaryRows
 from fsi_sph.fluid.kinematic_guard import KinematicGuard
 from fsi_sph.fluid.motion import Motion
@@ -243,6 +243,7 @@ def warm_up(kind):
     K.boundary_guard(x, start, j, n, n, n, nrm, nrm, 0.5, 0.1, v, vs, np.zeros((n, 2)),
                      np.zeros(n, dtype=np.int64))
     amg.warm_up()
+    krylov.warm_up()
     out = np.zeros(1)
     s1, j1 = find_neighbors(x[:1], x, 2 * h)
     K.shepard_at(x[:1], x, p, s1, j1, h, kind, out)

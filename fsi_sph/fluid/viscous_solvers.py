@@ -12,7 +12,7 @@ import numpy as np
 import pyamg
 import scipy.sparse as sp
 
-from fsi_sph.fluid import amg
+from fsi_sph.fluid import amg, krylov
 
 
 @dataclass
@@ -106,7 +106,7 @@ def amplifies(u, rhs):
 
 def solve_coupled(A, A2, b, x0, rtol, pre=None):
     """The coupled system ``A2 U = b`` of the stress operator (a sparse matrix or a
-    :class:`CoupledMatrix`) by flexible GMRES (:func:`amg.fgmres`), preconditioned by a
+    :class:`CoupledMatrix`) by flexible GMRES (:func:`krylov.fgmres`), preconditioned by a
     smoothed-aggregation AMG V-cycle of the Morris matrix ``A`` on each velocity component
     (the block diagonal of ``A2``; the transposed part ``dt B`` it leaves out is of the same
     order but couples the components); ``pre`` a :class:`MorrisPreconditioner` that keeps
@@ -122,7 +122,7 @@ def solve_coupled(A, A2, b, x0, rtol, pre=None):
     def apply(r):
         return np.concatenate([vc(r[:n]), vc(r[n:])])
 
-    u, its, rel = amg.fgmres(_Operator(A2), np.ascontiguousarray(b, dtype=np.float64),
+    u, its, rel = krylov.fgmres(_Operator(A2), np.ascontiguousarray(b, dtype=np.float64),
                              np.ascontiguousarray(x0, dtype=np.float64), apply, rtol, 200,
                              restart=50)
     pre.record(its)
@@ -137,7 +137,7 @@ def solve_coupled(A, A2, b, x0, rtol, pre=None):
 
 class _Operator:
     """``matvec`` and ``residual`` of a sparse matrix or a :class:`CoupledMatrix` for
-    :func:`amg.fgmres`."""
+    :func:`krylov.fgmres`."""
 
     def __init__(self, M):
         self.M = M
