@@ -20,6 +20,7 @@ from fsi_sph.guard import Guard
 from fsi_sph.probes import make_probe
 from fsi_sph.soil.drucker_prager import DruckerPragerBody
 from fsi_sph.solid.tlsph import ElasticBody
+from fsi_sph.step_table import StepTable
 
 log = logging.getLogger(__name__)
 
@@ -51,6 +52,7 @@ class Simulation:
             self.structures[name] = DruckerPragerBody(name, sec, c.dx, cfg.sph, c.gravity,
                                                       walls)
         self.probes = [make_probe(p, self.bodies()) for p in cfg.probes]
+        self.step_table = StepTable(self.fluid, self.coupling)
         fixed = []
         if self.fluid is not None and self.fluid.walls is not None:
             fixed.append(self.fluid.walls.body["x"])
@@ -80,24 +82,6 @@ class Simulation:
     def n_particles(self) -> int:
         n = sum(b.body.n for b in self.structures.values())
         return n + (self.fluid.n if self.fluid is not None else 0)
-
-    @property
-    def step_columns(self):
-        """Columns of the per-step table of the output (``/steps``)."""
-        cols = ("t", "dt", "n_sub")
-        if self.fluid is not None:
-            cols += ("ppe_iterations", "ppe_residual", "ppe_assemble_s", "ppe_setup_s",
-                     "ppe_solve_s", "ppe_rebuilt")
-        if self._dt_limit_columns:  # viscosity law / implicit step: every dt limit [F 48]
-            cols += ("dt_advective", "dt_viscous_explicit", "dt_force", "nu_max",
-                     "viscous_iterations", "viscous_residual", "viscous_fallback")
-        if self.coupling is not None:
-            cols += ("power_on_structures", "power_on_fluid")
-        return cols
-
-    @property
-    def _dt_limit_columns(self):
-        return self.fluid is not None and self.fluid.viscous is not None
 
     def _timed(self, phase, fn, *args):
         t0 = time.perf_counter()
@@ -236,7 +220,7 @@ class Simulation:
             if self.fluid is not None and self.fluid.walls is not None:
                 static["walls"] = self.fluid.walls.static()
             writer = RunWriter(Path(out_dir) / "run.h5", self.cfg.to_json(), case_file, static,
-                               step_columns=self.step_columns)
+                               step_columns=self.step_table.columns)
         rows = {p.name: (p.columns, []) for p in self.probes}
         step_rows = []
         eps = 1e-12 * c.t_end
@@ -258,7 +242,7 @@ class Simulation:
                 if snapshot:
                     last_snapshot[0] = self.t
                     snap = self._snapshot()
-                writer.write(self.t, self.n_steps, snap, rows, step_rows, self._timing_attrs(),
+                writer.write(self.t, self.n_steps, snap, rows, step_rows, _timing_attrs(self),
                              status, restart=(self.clock(), self.state()) if snapshot else None)
             for _, r in rows.values():
                 r.clear()
@@ -281,18 +265,7 @@ class Simulation:
                     status = f"stopped at max_steps = {max_steps}"
                     break
                 dt, n_sub = self.step(dt_max=c.t_end - self.t, to_end=True)
-                row = [self.t, dt, max(n_sub.values(), default=0)]
-                if self.fluid is not None:
-                    st = self.fluid.last_stats
-                    row += [st.iterations, st.residual, st.assemble_time, st.setup_time,
-                            st.solve_time, float(st.rebuilt)]
-                if self._dt_limit_columns:
-                    lim, vs = self.fluid.dt_limits, self.fluid.viscous.stats
-                    row += [lim["advective"], lim["viscous"], lim["force"], lim["nu_max"],
-                            vs.iterations, vs.residual, float(vs.fallback)]
-                if self.coupling is not None:
-                    row += [self.coupling.power_structure, self.coupling.power_fluid]
-                step_rows.append(row)
+                step_rows.append(self.step_table.row(self.t, dt, n_sub))
                 if bar is not None:
                     bar.update(dt)
                 t0 = time.perf_counter()
@@ -323,7 +296,7 @@ class Simulation:
                     self._write_last_good(writer, status)
                 else:
                     flush(last_snapshot[0] < self.t, status)
-                writer.finish(status, self._timing_attrs())
+                writer.finish(status, _timing_attrs(self))
         summary = {"status": status, "steps": self.n_steps, "t": self.t,
                    "n_particles": self.n_particles, "particle_steps": self.particle_steps,
                    "loop_time_s": self.timings["loop"], "setup_time_s": self.timings["setup"],
@@ -341,7 +314,7 @@ class Simulation:
         self.load_state(good_clock, good_state)
         snap = self._snapshot()
         self.load_state(failed_clock, failed_state)  # the object keeps the failed state
-        writer.write(good_clock["t"], good_clock["step"], snap, {}, [], self._timing_attrs(),
+        writer.write(good_clock["t"], good_clock["step"], snap, {}, [], _timing_attrs(self),
                      status, restart=(good_clock, good_state), last_good=True)
 
     def _snapshot(self):
@@ -350,11 +323,13 @@ class Simulation:
             snap["walls"] = self.fluid.wall_snapshot()
         return snap
 
-    def _timing_attrs(self):
-        out = {f"{k}_s": float(v) for k, v in self.timings.items()}
-        out["steps"] = self.n_steps
-        out["particle_steps"] = self.particle_steps
-        return out
+
+def _timing_attrs(sim):
+    """The run's wall times per phase, steps and particle-steps (output attributes)."""
+    out = {f"{k}_s": float(v) for k, v in sim.timings.items()}
+    out["steps"] = sim.n_steps
+    out["particle_steps"] = sim.particle_steps
+    return out
 
 
 def _progress(enabled, total, start=0.0):
