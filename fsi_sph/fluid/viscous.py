@@ -168,7 +168,7 @@ class ViscousStep:
                                      ps.ff_start, ps.ff_j, nf, ps.h, ps.kernel,
                                      ps.eta2, dt, col_of, mirror)
                 u, self.stats = self.solve_step(A, ps.v_old + dt * force + b_wall,
-                                                     dt, col_of, mirror, stress)
+                                                dt, col_of, mirror, stress)
                 ps.v_star[:] = u
             else:
                 A, b_wall = assemble(ps.x_all, ps.vol_all, ps.nu_all, ps.v_all,
@@ -180,7 +180,7 @@ class ViscousStep:
                 # g - grad p^n / rho inside the solve (~0 at rest, walls' u*_w = u_w).
                 inside = dt * force if self.pressure.incremental_step else 0.0
                 u, self.stats = self.solve_step(A, ps.v_old + inside + b_wall, dt,
-                                                     col_of, None, stress)
+                                                col_of, None, stress)
                 ps.v_star[:] = u if self.pressure.incremental_step else u + dt * g
         else:
             K.predict_velocity(ps.x_all, ps.v_all, ps.vol_all, nu_op,
