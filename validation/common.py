@@ -78,8 +78,11 @@ def record(label, dx, summary, errors, values=None) -> dict:
 
 
 def markdown_table(result: dict) -> str:
-    """One row per record: resolution, particles, steps, wall time, throughput, errors."""
+    """One row per record: resolution, particles, steps, wall time, throughput, errors; then
+    one row per published model or peer code of ``result["marks"]`` (``{label: {error_key:
+    value}}``: the same errors, no resolution or time known), in italics."""
     recs = result["records"]
+    marks = result.get("marks") or {}
     ekeys = list(dict.fromkeys(k for r in recs for k in r["errors"]))
     head = ["label", "dx (m)", "particles", "steps", "wall time (s)", "particle-steps/s",
             *[f"{k}" for k in ekeys]]
@@ -88,6 +91,12 @@ def markdown_table(result: dict) -> str:
         row = [r["label"], f"{r['dx']:g}", str(r["n_particles"]), str(r["steps"]),
                f"{r['wall_time_s']:.1f}", f"{r['particle_steps_per_s']:.3g}",
                *[f"{r['errors'][k]:+.3f}" if k in r["errors"] else "" for k in ekeys]]
+        lines.append("| " + " | ".join(row) + " |")
+    for label, vals in marks.items():
+        if not any(k in vals for k in ekeys):
+            continue
+        row = [f"*{label}*", "", "", "", "", "",
+               *[f"*{vals[k]:+.3f}*" if k in vals else "" for k in ekeys]]
         lines.append("| " + " | ".join(row) + " |")
     return "\n".join(lines) + "\n"
 

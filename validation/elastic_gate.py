@@ -37,7 +37,16 @@ experiment after its peak. A 10-across gate (dx 0.5 mm, measured once, to 0.15 s
 40.22 mm at 0.1125 s. The hourglass control matters at these thicknesses (4 across: none
 44.7 mm, but the uncontrolled gate alone is 50-100 % too soft statically; the conservative
 penalty 35.5 mm, far too stiff); the default (Ganzenmueller, 10) is within 7 % of beam
-theory in the linear regime (docs/session_notes_2026-12-01e.md).
+theory in the linear regime (docs/numerics/solid.md, "Hourglass control").
+
+Published 2D models of the gate with E about 12 MPa (``PUBLISHED_MODELS``, SOURCE.md's table:
+Khayyer et al. 2018, 42.7 mm; Yang et al. 2012 as redrawn by Ng et al. 2020, 39.3 mm; Ng et al.
+2020, 39.0 mm; all at about 0.12 s) open the gate less and earlier than the experiment; they
+are drawn on the plot and stored in the record (``values.published_models``). Target (project
+issue 24): our peak inside their spread, ``PUBLISHED_SPREAD_MM`` = 39-43 mm, at every rung
+from 3 across (``values.in_published_spread``; ``errors.peak_x_outside_published_mm``: the
+distance outside it, 0 inside). The experiment's error (``errors.peak_x_pct``) is kept as it
+is; E is not tuned.
 """
 
 from __future__ import annotations
@@ -56,7 +65,16 @@ LADDER = [("2 / gate thickness", 0.0025), ("3 / gate thickness", 0.005 / 3),
 #: the plane-strain comparison run of the full ladder (PHYSICS.md §4's idealisation)
 PLANE_STRAIN = ("4 / gate thickness, plane strain", 0.00125)
 REF_PEAK_X = 0.0463  # m, experiment (SOURCE.md)
-MARKS = {"Antoci SPH (2007)": {"peak_x_pct": 100 * (0.0506 - REF_PEAK_X) / REF_PEAK_X}}
+#: published 2D models with E about 12 MPa (SOURCE.md): peak x, peak y (mm), peak time (s)
+PUBLISHED_MODELS = {
+    "Khayyer et al. 2018, ISPH-SPH": {"peak_x_mm": 42.7, "peak_y_mm": 14.8, "peak_time_s": 0.12},
+    "Yang et al. 2012, SPH-FEM (Ng et al. 2020's redrawing)": {
+        "peak_x_mm": 39.3, "peak_y_mm": 13.1, "peak_time_s": 0.12},
+    "Ng et al. 2020, SPH-VCPM": {"peak_x_mm": 39.0, "peak_y_mm": 13.7, "peak_time_s": 0.12}}
+PUBLISHED_SPREAD_MM = (39.0, 43.0)
+MARKS = {"Antoci SPH (2007)": {"peak_x_pct": 100 * (0.0506 - REF_PEAK_X) / REF_PEAK_X},
+         **{name: {"peak_x_pct": 100 * (1e-3 * m["peak_x_mm"] - REF_PEAK_X) / REF_PEAK_X}
+            for name, m in PUBLISHED_MODELS.items()}}
 
 
 def static_tip_deflection(E, nu, plane, thickness=0.005, length=0.079, head=0.14,
@@ -147,7 +165,12 @@ def compare(t, ux, uy, data_dir):
               "rms_y_mm": 1e3 * math.sqrt(np.mean((oy - ey[inside_y]) ** 2)),
               "experiment_points_compared": int(inside_x.sum())}
     values.update(against_yang(t, ux, uy, folder))
-    return {"peak_x_pct": 100 * (ux[k] - REF_PEAK_X) / REF_PEAK_X}, values
+    lo, hi = PUBLISHED_SPREAD_MM
+    peak_mm = values["peak_x_mm"]
+    values["in_published_spread"] = float(lo <= peak_mm <= hi)
+    values["published_models"] = PUBLISHED_MODELS
+    return {"peak_x_pct": 100 * (ux[k] - REF_PEAK_X) / REF_PEAK_X,
+            "peak_x_outside_published_mm": max(0.0, lo - peak_mm, peak_mm - hi)}, values
 
 
 def against_yang(t, ux, uy, folder):
@@ -173,7 +196,7 @@ def plot(runs, data_dir, path):
     import matplotlib.pyplot as plt
 
     folder = Path(data_dir) / "antoci2007_elastic_gate"
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4), layout="constrained")
+    fig, axes = plt.subplots(1, 2, figsize=(13, 4), layout="constrained")
     for ax, comp, exp, sph, yang in (
             (axes[0], 0, "exp_x_Ex10X.txt", "antoci_sph_x.txt", "yang2012_sphfem_x.txt"),
             (axes[1], 1, "exp_y_Ex10Y.txt", "antoci_sph_y.txt", "yang2012_sphfem_y.txt")):
@@ -184,12 +207,19 @@ def plot(runs, data_dir, path):
         if (folder / yang).exists():
             ty, dy = load_curve(folder / yang)
             ax.plot(ty, 1e3 * dy, "k:", lw=1.2, label="SPH-FEM, Yang et al. 2012")
+        key = "peak_x_mm" if comp == 0 else "peak_y_mm"
+        for (name, m), mk in zip(PUBLISHED_MODELS.items(), ("^", "v", "D"), strict=True):
+            ax.plot(m["peak_time_s"], m[key], mk, color="0.35", mfc="none", ms=7,
+                    label=f"peak, {name}")
+        if comp == 0:
+            ax.axhspan(*PUBLISHED_SPREAD_MM, color="0.9", zorder=0,
+                       label="published models' peaks (E 12 MPa)")
         for label, (t, ux, uy) in runs.items():
             ax.plot(t, 1e3 * (ux if comp == 0 else uy), lw=1.5, label=f"fsi_sph, {label}")
         ax.set_xlabel("t (s)")
         ax.set_ylabel(("horizontal" if comp == 0 else "vertical") + " displacement (mm)")
         ax.grid(alpha=0.3)
-    axes[0].legend(fontsize=8)
+    fig.legend(*axes[0].get_legend_handles_labels(), loc="outside right upper", fontsize=7)
     fig.savefig(path, dpi=120)
     plt.close(fig)
 
@@ -242,7 +272,10 @@ def validate(quick=False, data_dir="../shared/validation_data",
     plot(runs, data_dir, out / "gate_displacement.png")
     result = {"case": "elastic_gate",
               "reference": "experiment, Antoci et al. 2007: peak horizontal displacement "
-                           "46.3 mm at 0.162 s",
-              "machine": machine(), "marks": MARKS, "records": records}
+                           "46.3 mm at 0.162 s; published 2D models (E 12 MPa): 39.0-42.7 mm "
+                           "at about 0.12 s",
+              "machine": machine(), "marks": MARKS, "published_models": PUBLISHED_MODELS,
+              "targets": {"peak_x_mm in (every rung from 3 across)": list(PUBLISHED_SPREAD_MM)},
+              "records": records}
     write_outputs(result, out, ["peak_x_pct"], "Elastic gate: error vs wall time")
     return result

@@ -15,7 +15,8 @@ than 1.5 dx), so particles and small clusters thrown ahead of the deposit do not
 back wall at x = 0.
 
 Realizations: the run-out of one run is one draw (runs that differ only in accidents of
-the step sequence moved it by 4-21 % of the reference, docs/session_notes_2026-11-30e.md),
+the step sequence moved it by 4-21 % of the reference; docs/numerics/granular.md,
+"Reproducibility and run-to-run spread"),
 so each column is run ``REALIZATIONS`` times (3; 1 with ``--quick``), realization k with its
 initial lattice jittered by 0.01 dx (``fluid.jitter``, ``fluid.jitter_seed = k``).
 
@@ -42,7 +43,8 @@ L0 = 0.1
 PARTICLES = {True: 800, False: 3200}
 # realizations per column (the initial lattice jittered by JITTER dx, one seed each): the
 # run-out of one run moves by 4-21 % of the reference between realizations (the last
-# 10-30 % of a deposit is a tail one or two particles thick; docs/session_notes_2026-11-30e.md)
+# 10-30 % of a deposit is a tail one or two particles thick; docs/numerics/granular.md,
+# "Reproducibility and run-to-run spread")
 REALIZATIONS = {True: 1, False: 3}
 JITTER = 0.01
 

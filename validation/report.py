@@ -33,6 +33,14 @@ def load_results(results_dir) -> dict:
     return out
 
 
+def scalar_values(values: dict) -> dict:
+    """The single numbers and short strings of a record's values (no lists, tables or
+    histories: those stay in result.json)."""
+    return {k: v for k, v in values.items()
+            if not k.startswith("history") and (isinstance(v, (int, float))
+                                                or (isinstance(v, str) and len(v) < 120))}
+
+
 def write_report(results: dict, path=HERE / "REPORT.md", fig_dir=HERE / "report",
                  failures=None, missing=()) -> Path:
     """Write the report and one PNG per case into ``fig_dir``; returns the report path."""
@@ -56,6 +64,9 @@ def write_report(results: dict, path=HERE / "REPORT.md", fig_dir=HERE / "report"
                   + ", ".join(f"{k} {v[k]}" for k in sorted(v)), ""]
     for name, res in results.items():
         lines += [f"## {name}", "", f"Reference: {res['reference']}", ""]
+        if res.get("targets"):
+            lines += ["Targets: " + "; ".join(f"{k} {v}" for k, v in res["targets"].items()),
+                      ""]
         m = res.get("machine") or {}
         if m:
             load = m.get("load_average_1min")
@@ -78,16 +89,17 @@ def write_report(results: dict, path=HERE / "REPORT.md", fig_dir=HERE / "report"
         error_vs_time(res["records"], keys, f"{name}: error vs wall time", fig,
                       marks=res.get("marks"))
         if res.get("marks"):
-            lines.append("Marked on the plot (other codes, no time known): " + "; ".join(
-                f"{lab}: " + ", ".join(f"{k} {v:g}" for k, v in vals.items())
-                for lab, vals in res["marks"].items()))
+            lines.append("Rows in italics: published models and peer codes (their errors by "
+                         "the same measure; no run time known), drawn as horizontal lines on "
+                         "the plot.")
             lines.append("")
         lines += [f"![{name}]({fig.relative_to(path.parent).as_posix()})", ""]
-        values = res["records"][-1].get("values", {})
+        values = scalar_values(res["records"][-1].get("values", {}))
         if values:
-            lines.append("Finest resolution, other measured values: " + ", ".join(
-                f"{k} = {v:.4g}" if isinstance(v, float) else f"{k} = {v}"
-                for k, v in values.items()))
+            lines.append("Finest resolution, other measured values (histories, tables and "
+                         "trial lists are in the case's result.json): " + ", ".join(
+                             f"{k} = {v:.4g}" if isinstance(v, float) else f"{k} = {v}"
+                             for k, v in values.items()))
             lines.append("")
     for name, why in (failures or {}).items():
         lines += [f"## {name}", "", f"**Did not run to the end**: {why}", ""]

@@ -117,7 +117,7 @@ class ShiftingSection(StrictModel):
         True, description="the Taylor-corrected velocity is scaled back to the particle's "
         "speed before the shift where it would be faster: the shift makes no kinetic energy "
         "(without it the dam break's spray gained energy without bound, +56 % by 3 s; "
-        "docs/session_notes_2026-12-01f.md)")
+        "docs/numerics/fluid.md § Energy cap)")
 
     @model_validator(mode="before")
     @classmethod
@@ -185,7 +185,8 @@ class FluidSection(StrictModel):
         "a bed row lifted off the floor, which the layer otherwise lets dilate (thin "
         "granular layers 4-5 particles thick hold their profile: 39 -> 8 %), but at a "
         "granular front one of 19 draws threw a particle (4.7 m/s, above the inviscid "
-        "front); set by the mu(I) cases, measured in docs/session_notes_2026-12-01c.md")
+        "front); set by the mu(I) cases, measured in docs/numerics/granular.md "
+        "§ Density relaxation")
     laplacian: Literal["consistent", "morris"] = Field(
         "consistent", description="PPE Laplacian of the fluid rows [F 11-12, F 20]: "
         "`consistent`: the Morris sum made exact for linear pressure fields on every row "
@@ -194,7 +195,7 @@ class FluidSection(StrictModel):
         "support, the plain Morris sum (an M-matrix) in the interior. With `morris` the "
         "hydrostatic pressure seen at displaced particles is not linear, which drives a "
         "growing oscillation of rows against each other: still water blew up after 2.5-3.5 s "
-        "(docs/session_notes_2026-12-01f.md)")
+        "(docs/numerics/fluid.md § PPE Laplacian)")
     position_update: Literal["damped", "trapezoid"] = Field(
         "damped", description="particle move of the correction step: `trapezoid` "
         "r^{n+1} = r^n + dt (u^n + u^{n+1}) / 2 [F 19]; `damped` r^{n+1} = r^n + dt u^{n+1} + "
@@ -241,7 +242,8 @@ class FluidSection(StrictModel):
         "particle-scale pressure noise that the carried pressure accumulates (the gradient "
         "hardly sees it, so no increment takes it back); 0 = the pure incremental form. "
         "Experimental: 0.1 made the sand collapse's run-out independent of dt but blew up "
-        "the a = 0.5 glass-bead collapse at 0.38 s (docs/incr_notes_2026-11-30.md)")
+        "the a = 0.5 glass-bead collapse at 0.38 s (docs/numerics/fluid.md § Projection: "
+        "standard and incremental)")
     surface_offset: Annotated[float, Field(ge=0.0, le=1.0)] = Field(
         0.0, description="distance (in dx) from a free-surface particle to the free surface "
         "it stands for; the surface rows' pressure condition p = 0 holds there, so a surface "

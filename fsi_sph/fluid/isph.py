@@ -13,7 +13,7 @@ One fluid step ``dt`` (the order :meth:`Simulation.step` calls the verbs in):
    ``r^{n+1} = r^n + dt u^{n+1} + dt (u^{n+1} - u^n) / 2`` (``fluid.position_update =
    "damped"``, the default) or ``r^n + dt (u^n + u^{n+1}) / 2`` [F 19] (``"trapezoid"``).
    With the pressure solved at ``r^n`` (below) the trapezoid amplifies oscillations
-   (docs/fluid.md, "Position update").
+   (docs/numerics/fluid.md, "Position update").
 
 With ``fluid.projection = "incremental"`` (pressure correction: Goda 1979, J. Comput. Phys.
 30:76; van Kan 1986, SIAM J. Sci. Stat. Comput. 7:870) steps 4-6 become::

@@ -49,8 +49,9 @@ class KinematicGuard:
         step loses its whole velocity into the wall (restitution 0), so the projection does
         not stop it with an impulsive pressure ``~ rho u_n dx / dt`` that its neighbours
         also feel (at a granular front 5-10 kPa against a hydrostatic 0.1-0.2 kPa, which
-        pushed the tip particles ahead; other kicks at the thin front remain, session notes
-        2026-11-30f). No equation in PHYSICS.md: a contact rule for grains."""
+        pushed the tip particles ahead; other kicks at the thin front remain,
+        docs/numerics/fluid.md, "Wall contact"). No equation in PHYSICS.md: a contact rule
+        for grains."""
         ps = self.ps
         self.scratch[:] = ps.v_star  # (free outside the shift's guard)
         self.walls(dt, self.scratch, ps.v_star, stop=True)

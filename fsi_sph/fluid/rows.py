@@ -120,7 +120,7 @@ class RowRoles:
         28 % averaged over 1.5-3 s, 68 % at 3 s; with the floor on non-interior rows only:
         6.4 % and 8.2 %, the bed row at 0.54 dx, as with no floor at all; over three
         draws 28.8 -> 9.6 %, with a slower degradation after 2.6 s left in jittered draws
-        that no floor at all shows too; docs/session_notes_2026-12-01c.md)."""
+        that no floor at all shows too; docs/numerics/fluid.md, "Walls without suction")."""
         ps = self.ps
         return ps.body["class"] != K.INTERIOR
 
@@ -151,7 +151,7 @@ class RowRoles:
         bed row of a sheared layer lifted off the floor: ``div r`` falls below
         ``DIVR_FULL`` and nothing pulled it back; a row at a free surface or at a thin front
         has fewer fluid neighbours). A rule with no equation in PHYSICS.md; measured in
-        docs/session_notes_2026-12-01c.md; the mu(I) cases set it."""
+        docs/numerics/granular.md, "Density relaxation"; the mu(I) cases set it."""
         ps = self.ps
         b = ps.body
         truncated = b["divr"] < DIVR_FULL

@@ -34,7 +34,7 @@ normal part of gravity only. Along a vertical side wall that mirrored ``u_w = 0`
 no-slip wall dragged the gravity increment of the fluid beside it every step; the
 projection then pushed that fluid up the wall: a mu(I) wedge at 15 deg, below its repose
 angle, crept with the material rising along the wall at 0.014 m/s, and the pressure beside
-the wall fell to ~0.6 of hydrostatic. docs/mui_notes_2026-11-30.md.)
+the wall fell to ~0.6 of hydrostatic. docs/numerics/granular.md, "Walls of the viscous term".)
 
 Incremental projection (``fluid.projection = "incremental"``, Goda 1979; increments.py): the
 lagged pressure acceleration joins the body force on the right-hand side of the solve,

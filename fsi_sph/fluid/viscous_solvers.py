@@ -95,8 +95,8 @@ def amplifies(u, rhs):
     carry no such guarantee: on a lopsided support (a few particles left on the floor, the
     correction matrices up to ``1 / DET_MIN``) ``blockdiag(A, A) - dt B`` can be nearly
     singular, and at ``dt nu / dx^2 ~ 4-50`` its solution was 8 m/s for a right-hand side of
-    0.03 m/s (a = 8 collapse, deposit at rest: a particle thrown at 45 m/s; session notes
-    2026-12-01). Such a step is not a viscous step."""
+    0.03 m/s (a = 8 collapse, deposit at rest: a particle thrown at 45 m/s;
+    docs/numerics/granular.md, "Implicit viscous step"). Such a step is not a viscous step."""
     for k in range(2):
         bound = float(np.max(np.abs(rhs[:, k]))) if len(rhs) else 0.0
         if float(np.max(np.abs(u[:, k]), initial=0.0)) > AMPLIFICATION_LIMIT * bound + 1e-12:

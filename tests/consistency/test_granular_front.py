@@ -1,7 +1,7 @@
 """No particle is thrown ahead of a collapsing granular column (cases/granular_collapse.toml,
 the a = 4 column at the quick resolution, 0.6 s, ~20 s).
 
-Before the collision model and the walls without suction (docs/session_notes_2026-11-30d.md)
+Before the collision model and the walls without suction (docs/numerics/fluid.md, "Collision model" and "Walls without suction")
 clumps of free-surface particles at the thin front and particles pulled into the floor by
 Adami's wall pressure were thrown off at 4.6 m/s here (10-27 m/s at the full resolution),
 above the free-fall speed from the top of the column, sqrt(2 g H0) = 2.8 m/s, which no
@@ -11,12 +11,12 @@ guard; 2.1-3.4 m/s across wall rules and contact options): the bound is kept
 as a known failure, and the inviscid front speed 2 sqrt(g H0) = 3.96 m/s is the hard bound.
 With `fluid.surface_isolated_rows` (2026-12-01b) this draw is at 2.35 m/s; jittered draws
 2.40 and 5.37 m/s (seeds 1, 2); with `fluid.tension_cutoff` as well (not the case's
-setting), nine draws 2.02-3.09 m/s (docs/session_notes_2026-12-01b.md). With the walls'
+setting), nine draws 2.02-3.09 m/s (docs/numerics/fluid.md, "Isolated Poisson rows"). With the walls'
 floor on non-interior rows only (2026-12-01c) this draw is at 2.36 m/s, nineteen draws
 (seeds 0-18) 2.09-2.98 m/s, three of them above free fall (2.86, 2.92, 2.98), none above
 the inviscid front; with `fluid.relaxation_gap_rows` as well (the case's setting since
 2026-12-01c) this draw is at 2.35 m/s, nineteen draws 1.93-4.74 m/s, four above free fall
-and one above the inviscid front (4.74) (docs/session_notes_2026-12-01c.md).
+and one above the inviscid front (4.74) (docs/numerics/granular.md, "Density relaxation").
 """
 
 import math
@@ -49,11 +49,11 @@ def test_no_particle_outruns_an_inviscid_dam_break_front(fastest):
     assert fastest > 1.0  # the column did collapse
 
 
-@pytest.mark.xfail(reason="known defect (docs/session_notes_2026-11-30f.md, 2026-12-01b): a "
+@pytest.mark.xfail(reason="known defect (docs/validation/granular_collapse.md, docs/numerics/fluid.md \"Known gaps\"): a "
                    "pocket of Poisson rows among surface rows at the thin front builds up "
                    "tens of kPa in a few steps of the incremental projection (tension or "
                    "compression) and throws a particle ahead; this draw stays below free fall "
-                   "(2.35 m/s); four of nineteen draws exceed it (up to 4.74 m/s, 2026-12-01c)",
+                   "(2.35 m/s); four of nineteen draws exceed it (up to 4.74 m/s)",
                    strict=False)
 def test_no_particle_outruns_free_fall_from_the_column_top(fastest):
     assert fastest < math.sqrt(2.0 * 9.81 * A * 0.1)

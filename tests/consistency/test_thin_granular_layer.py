@@ -5,7 +5,7 @@ With the walls' pressure floor (``fluid.wall_suction = false``) taken on every r
 incremental projection's pressure noise was rectified into a push off the bed: the bed row
 rose from 0.50 to 0.63 dx, the layer dilated and ran away after 2 s (profile error 28 %
 averaged over 1.5-3 s, 68 % at 3 s). With the floor on the non-interior rows only
-(rows.py ``RowRoles.floor_rows``): 6.4 % and the bed row at 0.54 dx (docs/session_notes_2026-12-01c.md).
+(rows.py ``RowRoles.floor_rows``): 6.4 % and the bed row at 0.54 dx (docs/numerics/fluid.md, "Walls without suction").
 This is the unjittered draw, deterministic (the same with 1 and 2 threads). The fix
 is partial: jittered draws hold the profile through 2.5 s (worst snapshot 7.6-9.4 % over
 1.5-2.4 s) but still degrade afterwards (28 and 46 % at 3 s, as with no floor at all; with
@@ -62,7 +62,7 @@ def test_thin_layer_keeps_its_bed_row_and_profile():
 def test_gap_rows_hold_a_layer_four_particles_thick():
     """``fluid.relaxation_gap_rows`` (the case sets it): at H/dx = 4 the layer's bed row
     rises to 0.72 dx and the profile error to 39 % (late mean) without it; with it 0.60 dx
-    and 8.3 % (docs/session_notes_2026-12-01c.md)."""
+    and 8.3 % (docs/numerics/granular.md, "Density relaxation")."""
     errors, beds = _late_history(4)
     assert np.mean(errors) < 0.12
     assert np.mean(beds) < 0.65

@@ -8,7 +8,8 @@ from validation.report import load_results, write_report
 def _result():
     recs = [make_record(lab, dx, {"n_particles": n, "steps": 10 * n, "wall_time_s": t,
                                   "particle_steps_per_s": 1e6},
-                        {"period_pct": e, "amplitude_pct": -e / 2}, {"note": 1.5})
+                        {"period_pct": e, "amplitude_pct": -e / 2},
+                        {"note": 1.5, "history_t_s": [0.0, 0.1], "table": {"a": 1}})
             for lab, dx, n, t, e in [("coarse", 0.004, 300, 2.0, 4.0),
                                      ("fine", 0.002, 1200, 16.0, 1.0)]]
     return {"case": "demo", "reference": "analytic", "records": recs,
@@ -23,7 +24,10 @@ def test_write_report(tmp_path):
     text = path.read_text()
     assert "## demo" in text and "| coarse | 0.004 | 300 | 3000 | 2.0 |" in text
     assert "+4.000" in text and "-0.500" in text
-    assert "source paper: period_pct 2.36" in text
+    # the published model beside our ladder, in the table (its own row) and on the plot
+    assert "| *source paper* |" in text and "*+2.360*" in text
+    # single values in the text; histories and tables stay in result.json
+    assert "note = 1.5" in text and "history_t_s" not in text and "table = " not in text
     assert "![demo](fig/demo.png)" in text and (tmp_path / "fig" / "demo.png").stat().st_size
     assert "test-os" in text and "numpy 1" in text
     assert "## broken" in text and "no data" in text

@@ -10,9 +10,13 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 from validation.column_collapse import (  # noqa: E402
+    contour_toe,
+    deposit_height,
     failure_line,
+    line_angle_deg,
     onset_sensitivity,
     static_bounds,
+    surface_rms_mm,
 )
 from validation.soil_common import deposit_toe  # noqa: E402
 
@@ -69,3 +73,48 @@ def test_onset_sensitivity_of_a_graded_wedge():
     assert a[2] == pytest.approx(69.0, abs=2.5)
     for e in (0.05, 0.5, 0.95):
         assert res[f"adv=0.2H,eps={e}"] == pytest.approx(55.0, abs=1.5)
+
+
+def _lattice(dx, length=0.2, height=0.1):
+    xs, ys = np.meshgrid(np.arange(dx / 2, length, dx), np.arange(dx / 2, height, dx))
+    return np.column_stack([xs.ravel(), ys.ravel()])
+
+
+@pytest.mark.parametrize("angle", [0.0, 32.9, 45.0, 80.0])
+def test_line_angle_of_noisy_points_on_a_line(angle):
+    """Points scattered about a line at ``angle``: the orthogonal fit finds the angle (a fit of
+    y on x would be biased towards flat for the steep line)."""
+    rng = np.random.default_rng(3)
+    s = np.linspace(0.0, 0.2, 40)
+    a = math.radians(angle)
+    pts = np.column_stack([0.18 - s * math.cos(a), s * math.sin(a)])
+    pts += rng.normal(0.0, 1e-4, pts.shape)
+    assert line_angle_deg(pts) == pytest.approx(angle, abs=0.2)
+
+
+def test_deposit_height_and_contour_toe_of_a_wedge():
+    """A deposit filling the triangle under y = 0.1 (1 - x / 0.4): the volume-equivalent height
+    follows the line within a particle's height, and the 2 mm contour lies where the line is
+    2 mm high (x = 0.392) to within two spacings (the lattice's last layer, one particle
+    = 2 mm high, reaches x = 0.396); the surface RMS against the line is below dx."""
+    dx = 0.002
+    x = _lattice(dx, 0.4, 0.1)
+    x = x[x[:, 1] < 0.1 * (1.0 - x[:, 0] / 0.4)]
+    xs = np.array([0.001, 0.05, 0.1, 0.2, 0.3])
+    assert np.allclose(deposit_height(x, dx, xs), 0.1 * (1.0 - xs / 0.4), atol=dx)
+    assert contour_toe(x, dx) == pytest.approx(0.4 * (1.0 - 0.02), abs=2 * dx)
+    surf = np.column_stack([xs, 0.1 * (1.0 - xs / 0.4)])
+    assert surface_rms_mm(x, dx, surf) < 1e3 * dx
+    # the same deposit shifted 1 cm down the floor: its toe moves by 1 cm, the RMS grows
+    x2 = x + [0.01, 0.0]
+    assert contour_toe(x2, dx) - contour_toe(x, dx) == pytest.approx(0.01, abs=0.5 * dx)
+    assert surface_rms_mm(x2, dx, surf[1:]) > 2.0
+
+
+def test_contour_toe_ignores_a_thin_spray():
+    """A column with a one-particle layer 1 mm high running ahead: the toe at the 2 mm contour
+    is the column's, not the layer's end."""
+    dx = 0.001
+    x = _lattice(dx, 0.1, 0.05)
+    layer = np.column_stack([np.arange(0.1005, 0.3, dx), np.full(200, 0.0005)])
+    assert contour_toe(np.vstack([x, layer]), dx) == pytest.approx(0.1, abs=2 * dx)

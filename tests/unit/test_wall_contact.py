@@ -9,7 +9,7 @@ the default) the solve has to take its motion out of the divergence: a suction o
 then stops it at the band's edge). With the inelastic contact its approach is removed
 before the solve: no kick, the pressure stays about hydrostatic. Such impulsive pressures
 (5-10 kPa at a granular front, hydrostatic 0.1-0.2 kPa) threw front particles of the
-granular collapse ahead (docs/session_notes_2026-11-30f.md).
+granular collapse ahead (docs/numerics/fluid.md, "Wall contact").
 """
 
 import numpy as np

@@ -8,8 +8,7 @@ hydrostatic term gives the walls beside and below it a pressure growing downward
 the corrected pressure gradient reproduces exactly, and the droplet is held as if it stood
 in a column of water (speed 0 after 0.05 s). ``"mirror"`` keeps the term along the wall
 only as far as the fluid's own pressure gradient carries it (none for a droplet), and a
-tank at rest stays at rest to round-off as with Adami's. (``"mirror"`` is the default since
-the session notes 2026-11-30f.)"""
+tank at rest stays at rest to round-off as with Adami's. (``"mirror"`` is the default; docs/numerics/fluid.md, "Wall pressure".)"""
 
 import math
 

@@ -138,8 +138,8 @@ def apply_shift(dr, grad_p, grad_v, taylor, lo, hi, x, p, v, energy_cap=False):
     gained 2 m/s per step in the gate's outflow). ``energy_cap``: the corrected velocity is
     scaled back to the particle's speed before the shift where it would be faster (the shift
     moves particles, it makes no kinetic energy: without it the dam break's spray gained
-    energy without bound, +56 % of the column's by 3 s; with it the energy falls, session
-    notes 2026-12-01f)."""
+    energy without bound, +56 % of the column's by 3 s; with it the energy falls,
+    docs/numerics/fluid.md, "Energy cap")."""
     for i in prange(dr.shape[0]):
         d0 = dr[i, 0]
         d1 = dr[i, 1]
