@@ -5,9 +5,7 @@ than 5 % of the height."""
 
 from validation.slope_fos import Slope, validate_slope
 
-SLOPE = Slope("slope_1_granular", "sand", [(0.0, 1.0), (1.0, 1.0), (2.0, 0.0), (3.5, 0.0)],
-              height=1.0, ladder=(0.05, 0.025), quick_ladder=(0.05,), t_settle=1.0,
-              t_trial=2.0, damping=20.0, bracket=(0.25, 0.6))
+SLOPE = Slope("slope_1_granular", "sand", ladder=(0.05, 0.025), quick_ladder=(0.05,))
 
 
 def validate(quick=False, data_dir=None, out_dir=None):

@@ -33,14 +33,37 @@ COULOMB = 2
 # ----------------------------------------------------------------------------- scalars
 @njit(cache=True)
 def dp_parameters(phi, c, psi):
-    """Plane-strain Mohr-Coulomb fit of Drucker-Prager [S 4-40, 4-41]:
-    ``alpha_phi = tan(phi)/sqrt(9 + 12 tan^2 phi)``, ``k_c = 3 c/sqrt(9 + 12 tan^2 phi)``
-    and the dilatancy coefficient ``alpha_psi`` from ``psi`` in the same form.
-    Angles in radians. Returns ``(alpha_phi, k_c, alpha_psi)``."""
-    t = math.tan(phi)
-    d = math.sqrt(9.0 + 12.0 * t * t)
+    """Drucker-Prager cone matched to Mohr-Coulomb (``phi``, ``c``) in plane strain *at
+    plastic flow with the dilatancy ``psi`` of the flow rule*. Angles in radians. Returns
+    ``(alpha_phi, k_c, alpha_psi)`` of ``f = alpha_phi I1 + sqrt(J2) - k_c``,
+    ``g = alpha_psi I1 + sqrt(J2)``.
+
+    * ``alpha_psi = tan(psi)/sqrt(9 + 12 tan^2 psi)`` [S 4-40 with psi]: with it the in-plane
+      plastic strain rate dilates at exactly ``psi``, ``sin(psi) = 3 alpha_psi/q``,
+      ``q = sqrt(1 - 3 alpha_psi^2)``.
+    * Plane strain, ``eps_zz^p = 0``, puts the out-of-plane deviator at
+      ``s_zz = -2 alpha_psi sqrt(J2)``. With the in-plane Mohr circle (centre ``p``, radius
+      ``R``, tension positive) that gives ``sqrt(J2) = R/q`` and
+      ``I1 = 3 p - 3 alpha_psi R/q``, so ``f = 0`` is the Mohr-Coulomb line
+      ``R = -p sin(phi) + c cos(phi)`` when
+      ``alpha_phi = sin(phi)/(3 (q + alpha_psi sin(phi)))``,
+      ``k_c = c cos(phi) (1 - 3 alpha_phi alpha_psi)/q``.
+    * For associated flow (``psi = phi``) this is [S 4-40, 4-41],
+      ``alpha_phi = tan(phi)/sqrt(9 + 12 tan^2 phi)``, ``k_c = 3 c/sqrt(9 + 12 tan^2 phi)``;
+      [S] derives that fit for associated flow. With ``psi = 0`` it is
+      ``alpha_phi = sin(phi)/3``, ``k_c = c cos(phi)``. Used with ``psi < phi``, the fit
+      [S 4-40] makes the soil weaker than Mohr-Coulomb at flow, in-plane
+      ``sin(phi_eff) = 3 alpha_phi`` for ``psi = 0``: 19.4 deg for phi = 19.8 deg, but 45 deg
+      for phi = 50.8 deg, the friction that a 45 deg cohesionless slope needs under strength
+      reduction (tests/unit/test_soil_dp_fit.py, validation/README_soil.md).
+    """
     tp = math.tan(psi)
-    return t / d, 3.0 * c / d, tp / math.sqrt(9.0 + 12.0 * tp * tp)
+    a_psi = tp / math.sqrt(9.0 + 12.0 * tp * tp)
+    q = math.sqrt(1.0 - 3.0 * a_psi * a_psi)
+    sp = math.sin(phi)
+    alpha = sp / (3.0 * (q + a_psi * sp))
+    kc = c * math.cos(phi) * (1.0 - 3.0 * alpha * a_psi) / q
+    return alpha, kc, a_psi
 
 
 @njit(cache=True)

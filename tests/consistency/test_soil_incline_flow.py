@@ -10,8 +10,8 @@ flowing friction of the soil in the SPH discretisation, against two analytic ans
   reaches the floor through the soil's own stress (the strip test of
   test_soil_wall_friction.py is one particle thick).
 * On a floor rougher than the soil the base sticks; inside the flowing layer the stress is at the psi = 0 critical state of simple shear
-  (see test_soil_simple_shear.py): ``|tau|/sigma_n = 3 alpha`` [S 4-40]. That the SPH
-  velocity gradient, Jaumann update and return mapping [S 4-36 to 4-57] reproduce it in a
+  (see test_soil_simple_shear.py): ``|tau|/sigma_n = 3 alpha`` (``= sin phi`` for psi = 0).
+  That the SPH velocity gradient, Jaumann update and return mapping [S 4-36 to 4-57] reproduce it in a
   real flow (particle disorder, free surface, floor) rules out a discretisation that weakens
   the flowing soil (e.g. stress noise leaving particles at the tension apex).
 """
@@ -25,7 +25,7 @@ from fsi_sph.config import load_config
 from fsi_sph.simulation import Simulation
 
 G = 9.81
-THETA = 25.0  # deg, above the flowing friction of the soil (atan 3 alpha = 18.4 deg)
+THETA = 25.0  # deg, above the flowing friction of the soil (atan 3 alpha = atan sin phi)
 DX = 0.005
 CASE = """
 [case]

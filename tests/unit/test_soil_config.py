@@ -25,7 +25,8 @@ def test_soil_table_builds_a_soil_body():
     sim = Simulation(cfg)
     body = sim.structures["sand"]
     assert body.body.kind == "soil"
-    assert body.alpha == pytest.approx(math.tan(math.radians(30)) / math.sqrt(13.0))
+    # psi = 0 (default): the plane-strain match at flow, alpha = sin(phi)/3
+    assert body.alpha == pytest.approx(math.sin(math.radians(30)) / 3.0)
     assert "R" not in body.body and "vhat" not in body.body  # options absent -> no fields
     sim.step()
     assert np.isfinite(body.body["x"]).all()

@@ -25,11 +25,11 @@ def random_states(rng, n, scale=1e5):
 
 
 def test_plane_strain_fit_values():
-    """alpha = tan phi/sqrt(9 + 12 tan^2 phi), k_c = 3c/sqrt(...) [S 4-40, 4-41]."""
+    """psi = 0: alpha = sin(phi)/3, k_c = c cos(phi) (the plane-strain match at flow,
+    tests/unit/test_soil_dp_fit.py; [S 4-40, 4-41] is its psi = phi case)."""
     alpha, kc, apsi = dp_parameters(math.radians(30.0), 1e4, 0.0)
-    t = math.tan(math.radians(30.0))
-    assert alpha == pytest.approx(t / math.sqrt(9 + 12 * t * t), rel=1e-14)
-    assert kc == pytest.approx(3e4 / math.sqrt(9 + 12 * t * t), rel=1e-14)
+    assert alpha == pytest.approx(math.sin(math.radians(30.0)) / 3.0, rel=1e-14)
+    assert kc == pytest.approx(1e4 * math.cos(math.radians(30.0)), rel=1e-14)
     assert apsi == 0.0
 
 

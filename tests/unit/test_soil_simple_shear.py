@@ -6,11 +6,12 @@ With psi = 0 the plastic strain rate is deviatoric and parallel to s; in simple 
 (no stretching, plane strain) it ends when the in-plane and out-of-plane normal deviators
 vanish, sigma_xx = sigma_yy = sigma_zz = -p, and the stress sits on the cone with
 sqrt(J2) = |tau| = 3 alpha p. The shear on the shearing plane is then tau/sigma_n = 3 alpha
-(= sin phi for the psi = 0 plane-strain fit alpha = sin(phi)/3): the friction that an infinite
-slope or a slip band of this soil mobilises is atan(3 alpha) = 18.4 deg for phi = 19.8 deg
-with the fit [S 4-40], below phi (Davis 1968: tan phi* = sin phi cos psi/(1 - sin phi sin psi)
-for the fit of the plane-strain strength). That is part of why the cohesionless soil runs out
-further than a material with friction phi on its slip surfaces.
+= sin phi with the plane-strain fit at flow for psi = 0, alpha = sin(phi)/3: the friction
+that a slip band of this soil mobilises in steady simple shear is atan(sin phi) = 18.7 deg for
+phi = 19.8 deg, below phi (Davis 1968: tan phi* = sin phi cos psi/(1 - sin phi sin psi)).
+(With the fit [S 4-40] used at psi = 0 it was atan(3 alpha) = 18.4 deg.) That is part of why
+the cohesionless soil runs out further than a material with friction phi on its slip
+surfaces.
 """
 
 import math
@@ -41,5 +42,5 @@ def test_simple_shear_critical_state(phi):
     # normal stresses equal to O(tau/G), shear ratio 3 alpha
     np.testing.assert_allclose([sxx, syy, szz[0]], -p, rtol=1e-3)
     assert abs(sxy) / -syy == pytest.approx(3.0 * alpha, rel=1e-3)
-    if phi == 19.8:
-        assert math.degrees(math.atan(abs(sxy) / -syy)) == pytest.approx(18.39, abs=0.01)
+    # Davis (1968) for psi = 0: tan phi* = sin phi
+    assert abs(sxy) / -syy == pytest.approx(math.sin(math.radians(phi)), rel=1e-3)
