@@ -110,10 +110,9 @@ def test_bishop_method(tmp_path, capsys):
 
 def test_coarse_slope_strength_reduction(tmp_path, capsys):
     """Slope 1 at dx = H/10 through the whole command: a bracket of the stated tolerance,
-    one line per trial, the trials' verdicts consistent with the bracket, the outputs. At this
-    spacing (the slipping layer one or two particles thick) the factor of safety is well
-    below the infinite slope's tan(phi)/tan(beta) = 0.364 (0.28 measured; 0.33 at H/20,
-    validation/README_soil.md): asserted only to lie below it and above 0.6 of it."""
+    one line per trial, the trials' verdicts consistent with the bracket, the outputs, and the
+    issue's target, within 10 % of Bishop (0.386 against 0.369 measured at this spacing; the
+    finer spacings are in validation/README_soil.md)."""
     assert main(["fos", str(CASES / "slope_1_granular.toml"), "--set", "case.dx=0.1",
                  "--out", str(tmp_path), "--threads", "1"]) == 0
     out = capsys.readouterr().out
@@ -125,7 +124,6 @@ def test_coarse_slope_strength_reduction(tmp_path, capsys):
         assert t["verdict"] == ("failed" if t["F"] >= hi else "stable") or lo < t["F"] < hi
     assert any(t["F"] == lo and t["verdict"] == "stable" for t in r["trials"])
     assert any(t["F"] == hi and t["verdict"] == "failed" for t in r["trials"])
-    f_inf = math.tan(math.radians(20.0))
-    assert 0.6 * f_inf < r["fos"] < f_inf
+    assert abs(r["fos"] - r["fos_bishop"]) < 0.10 * r["fos_bishop"]
     assert (tmp_path / "fos_slip_surface.png").is_file()
     assert (tmp_path / "fos_displacement_vs_F.png").is_file()
