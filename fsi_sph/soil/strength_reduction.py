@@ -4,7 +4,8 @@ Shear strength reduction (Griffiths & Lane 1999; Bui et al. 2011 for SPH), every
 from the case:
 
 1. **Geometry** (:func:`slope_geometry`): the ground profile is the upper edge of the soil
-   body's blocks, extended along the floor beyond the toe; the rigid floor and back wall are
+   body's blocks, extended down a free end and along the floor beyond the toe (unless a right
+   wall closes the body); the rigid floor and back wall are
    the case's bottom and left walls; the crest is the last highest point, the toe the first
    lowest point after it, the height ``H`` their difference.
 2. **Geostatic state**: the case is loaded by gravity with mass damping while the soil is held
@@ -16,15 +17,16 @@ from the case:
 4. **Failure test** (:func:`verdict`): does the slope come to rest? With ``u`` the 98th
    percentile of the displacement since the geostatic state over the particles with a full
    kernel support (:func:`resolved_mask`: the free-surface row, whose stress comes from a
-   truncated support, is left out; alone it creeps down a cohesionless face at F 20 % below
-   the rest of the slope, validation/README_soil.md), ``g3`` and
+   truncated support, is left out: alone it creeps down a cohesionless face at a lower F than
+   the soil below it (slope 1 at dx 0.025: FoS 0.282 with it, 0.298 without;
+   validation/README_soil.md)), ``g3`` and
    ``g4`` its growth over the third and the last quarter of the trial, the trial **failed**
    when ``g4 > REST_TOL u`` (still moving, relative to what it has moved) and
    ``g4 >= FAIL_DECEL g3`` (not slowing down), or when ``u > COLLAPSE H`` (a slip so large it
    may have come to rest again in its run-out). A slope at rest moves ~1e-5 of its
    displacement in the last quarter; a slipping one 0.2-0.3 (validation/README_soil.md).
    No absolute displacement enters: a large soft slope that settles by decimetres is stable,
-   a thin surface layer that keeps sliding has failed.
+   a shallow slip that keeps sliding by millimetres has failed.
 5. **Bracket and bisection**: from ``[0.8, 1.25]`` times the limit-equilibrium factor of
    safety (Bishop, critical circle), widened until stable/failed, then bisected until
    ``hi - lo <= tol lo``; the factor of safety is the bracket's mid point.
@@ -133,24 +135,26 @@ def slope_geometry(cfg, body):
     right = [w.position for w in walls if w.side == "right"]
     y_floor = max(bottom) if bottom else float(allv[:, 1].min())
     x_wall = max(left) if left else xmin
+    # beyond the body (unless a right wall closes it): down its free end to the floor, then
+    # along the floor to a right wall or 2 (top - floor) further
+    if not (right and abs(min(right) - xmax) <= 1e-6 * span):
+        top_y = max(p[1] for p in pts)
+        x_end = float(min(right)) if right else xmax + 2.0 * (top_y - y_floor)
+        if pts[-1][1] > y_floor + 1e-6 * span:
+            pts.append((xmax, float(y_floor)))
+        pts.append((x_end, float(y_floor)))
     ys = np.array([p[1] for p in pts])
     top_y = ys.max()
     k_crest = int(np.flatnonzero(ys >= top_y - 1e-6 * span).max())
     rest = ys[k_crest:]
     k_toe = k_crest + int(np.flatnonzero(rest <= rest.min() + 1e-6 * span)[0])
-    height = top_y - float(rest.min())
+    height = float(top_y - rest.min())
     if height <= 1e-3 * span:
         raise SlopeInputError(
             f"soil body {body!r} has a flat top (no face descending to the right of its "
             "highest point): there is no slope whose factor of safety could be found. "
             "Strength reduction needs a ground profile that falls from a crest to a toe "
             "towards +x, as in cases/slope_*.toml.")
-    # beyond the body: along the floor (or at the toe level) to a right wall or 2 H further
-    if not (right and abs(min(right) - xmax) <= 1e-6 * span):
-        x_end = float(min(right)) if right else xmax + 2.0 * height
-        if pts[-1][1] > y_floor + 1e-6 * span:
-            pts.append((xmax, y_floor))
-        pts.append((x_end, y_floor))
     # drop points in the middle of straight runs
     keep = [pts[0]]
     for k in range(1, len(pts) - 1):
@@ -167,8 +171,14 @@ def limit_equilibrium(cfg, body, geo):
     """Bishop's simplified method, critical circle, on the case's soil (unreduced)."""
     mat = cfg.soil[body].material
     gamma = mat.rho0 * abs(cfg.case.gravity[1])
-    return critical_circle(geo.profile, mat.cohesion, mat.friction_angle_deg, gamma,
-                           x_wall=geo.x_wall, y_floor=geo.y_floor)
+    try:
+        return critical_circle(geo.profile, mat.cohesion, mat.friction_angle_deg, gamma,
+                               x_wall=geo.x_wall, y_floor=geo.y_floor)
+    except ValueError as e:  # no circle cuts the soil between the wall and the floor
+        raise SlopeInputError(
+            f"soil body {body!r}: {e} between the back wall x = {geo.x_wall:g} and the floor "
+            f"y = {geo.y_floor:g} (crest {geo.crest}, toe {geo.toe}); strength reduction "
+            "needs a slope that a slip circle can cut.") from None
 
 
 def verdict(u, g3, g4, height):

@@ -85,11 +85,23 @@ blocks = [{ origin = [2.5, 0.0], size = [0.5, 0.2] }]
 
 
 def test_flat_ground(tmp_path, capsys):
+    """A layer between the back wall and a right wall (a free right end would be a cut)."""
     flat = SLOPE_1.replace("[[0.0, 0.0], [0.0, 1.0], [1.0, 1.0], [2.0, 0.0]]",
-                           "[[0.0, 0.0], [0.0, 0.5], [2.0, 0.5], [2.0, 0.0]]")
+                           "[[0.0, 0.0], [0.0, 0.5], [2.0, 0.5], [2.0, 0.0]]").replace(
+        '{ side = "left", position = 0.0, friction = "free_slip" }',
+        '{ side = "left", position = 0.0, friction = "free_slip" },\n'
+        '         { side = "right", position = 2.0, friction = "free_slip" }')
     assert flat != SLOPE_1
     err = _bad(capsys, ["fos", _case(tmp_path, flat), "--method", "bishop"])
     assert "flat" in err
+
+
+def test_free_end_is_a_cut():
+    """A block with a free right end is a vertical cut: crest and toe at its corners."""
+    cfg = load_config(CASES / "column_collapse.toml")
+    geo = slope_geometry(cfg, soil_body_name(cfg))
+    assert geo.beta_deg == pytest.approx(90.0)
+    assert geo.toe[1] == geo.y_floor and geo.height == pytest.approx(geo.crest[1] - geo.y_floor)
 
 
 def test_soil_body_name_errors_are_input_errors():
