@@ -480,7 +480,7 @@ def fos_command(case, body=None, out=None, overrides=(), method="sph"):
 
     def line(r):
         print(f"  F = {r['F']:.4f}  u98 = {r['u98_m']:.4g} m ({100 * r['u98_m'] / H:.2f} % H), "
-              f"last quarters +{r['growth_q3_m']:.3g} / +{r['growth_q4_m']:.3g} m  "
+              f"last quarters {r['growth_q3_m']:+.3g} / {r['growth_q4_m']:+.3g} m  "
               f"{r['verdict']:6s}  {r['elapsed_s']:.1f} s", flush=True)
 
     res = strength_reduction(case, body, overrides, circle=circ, on_trial=line)
