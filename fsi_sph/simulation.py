@@ -206,21 +206,8 @@ class Simulation:
         appends to it (or writes ``out_dir/run.h5`` when ``out_dir`` is given).
         Returns a summary dict (steps, wall times, particle-steps per second, status).
         """
-        from fsi_sph.output import RunWriter, read_restart
-
         c = self.cfg.case
-        writer = None
-        if resume is not None:
-            clock, state = read_restart(resume)
-            self.load_state(clock, state)
-            if out_dir is None:
-                writer = RunWriter.reopen(resume, self.t)
-        if out_dir is not None:
-            static = {n: b.static() for n, b in self.bodies().items()}
-            if self.fluid is not None and self.fluid.walls is not None:
-                static["walls"] = self.fluid.walls.static()
-            writer = RunWriter(Path(out_dir) / "run.h5", self.cfg.to_json(), case_file, static,
-                               step_columns=self.step_table.columns)
+        writer = _open_writer(self, out_dir, case_file, resume)
         rows = {p.name: (p.columns, []) for p in self.probes}
         step_rows = []
         eps = 1e-12 * c.t_end
@@ -230,8 +217,11 @@ class Simulation:
             for p in self.probes:
                 rows[p.name][1].append([self.t, *p.sample()])
 
-        def flush(snapshot, status="running", good=None):
+        def flush(snapshot, status="running", restart_point=None):
+            # restart points: scheduled snapshots and a completed run's end (kept solver
+            # state reset there, as a restart starts); a --max-steps stop is only a snapshot
             nonlocal step_rows
+            restart_point = snapshot if restart_point is None else restart_point
             t0 = time.perf_counter()
             if snapshot:  # output or not, so that the physics never depends on the output
                 for o in self.bodies().values():
@@ -243,7 +233,8 @@ class Simulation:
                     last_snapshot[0] = self.t
                     snap = self._snapshot()
                 writer.write(self.t, self.n_steps, snap, rows, step_rows, _timing_attrs(self),
-                             status, restart=(self.clock(), self.state()) if snapshot else None)
+                             status,
+                             restart=(self.clock(), self.state()) if restart_point else None)
             for _, r in rows.values():
                 r.clear()
             step_rows = []
@@ -295,7 +286,8 @@ class Simulation:
                     flush(False, status)
                     self._write_last_good(writer, status)
                 else:
-                    flush(last_snapshot[0] < self.t, status)
+                    flush(last_snapshot[0] < self.t, status,
+                          restart_point=status == "completed" and last_snapshot[0] < self.t)
                 writer.finish(status, _timing_attrs(self))
         summary = {"status": status, "steps": self.n_steps, "t": self.t,
                    "n_particles": self.n_particles, "particle_steps": self.particle_steps,
@@ -322,6 +314,25 @@ class Simulation:
         if self.fluid is not None and self.fluid.walls is not None:
             snap["walls"] = self.fluid.wall_snapshot()
         return snap
+
+
+def _open_writer(sim, out_dir, case_file, resume):
+    """The run file's writer (None without output); with ``resume``, first load its restart
+    state into ``sim`` (and append to that file unless ``out_dir`` is given)."""
+    from fsi_sph.output import RunWriter, read_restart
+
+    writer = None
+    if resume is not None:
+        sim.load_state(*read_restart(resume))
+        if out_dir is None:
+            writer = RunWriter.reopen(resume, sim.t)
+    if out_dir is not None:
+        static = {n: b.static() for n, b in sim.bodies().items()}
+        if sim.fluid is not None and sim.fluid.walls is not None:
+            static["walls"] = sim.fluid.walls.static()
+        writer = RunWriter(Path(out_dir) / "run.h5", sim.cfg.to_json(), case_file, static,
+                           step_columns=sim.step_table.columns)
+    return writer
 
 
 def _timing_attrs(sim):

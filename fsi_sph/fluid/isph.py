@@ -129,8 +129,12 @@ class IncompressibleFluid(FluidParticles):
         self.pressure.load_extra_state(state)
 
     def at_snapshot(self):
-        """Called when a snapshot is written: rebuild the AMG hierarchy at the next solve."""
+        """Called at every scheduled snapshot (a restart point): the solvers' kept AMG
+        hierarchies are rebuilt at their next solve, as a restarted run builds them, so a
+        restart continues bit for bit."""
         self.pressure.at_snapshot()
+        if self.viscous is not None:
+            self.viscous.at_snapshot()
 
     @property
     def last_stats(self):

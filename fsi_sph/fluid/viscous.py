@@ -113,6 +113,10 @@ class ViscousStep:
         self.stats = ViscousStats()
         self.morris_pre = None  # the implicit stress step's AMG hierarchy (solve_step)
 
+    def at_snapshot(self):
+        """A restart point: the kept AMG hierarchy is built anew at the next solve."""
+        self.morris_pre = None
+
     def predict(self, dt):
         """[F 16] for a fluid with a non-Newtonian law or the implicit viscous step: the
         viscosity from the law (velocity gradient and pressure of step n), then the
