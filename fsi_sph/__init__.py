@@ -4,7 +4,8 @@ The public names are imported lazily so that ``fsi-sph info`` or a config error 
 pay for compiling numba kernels.
 """
 
-__version__ = "0.1.0"
+from fsi_sph.version import __version__
+
 __all__ = ["__version__", "load_config", "Simulation", "run"]
 
 

@@ -1,4 +1,4 @@
-"""Command line: ``fsi-sph run | info | plot | validate``.
+"""Command line: ``fsi-sph run | info | plot | validate | fos``.
 
 Exit codes: 0 success; 1 a run that failed (the message says when and why); 2 bad input
 (case file, override, option, file to plot, validation name).
@@ -14,15 +14,13 @@ import os
 import sys
 from pathlib import Path
 
+from fsi_sph.errors import ConfigError, SimulationError, UsageError
+
 log = logging.getLogger("fsi_sph")
 
 REPO = Path(__file__).resolve().parents[1]
 DEFAULT_CASE = REPO / "cases" / "dam_break_elastic_gate.toml"
 VALIDATION_DIR = REPO / "validation"
-
-
-class UsageError(Exception):
-    """Bad input given on the command line (exit code 2)."""
 
 
 def _parser():
@@ -68,6 +66,15 @@ def _parser():
     v.add_argument("--out", help="folder for tables, plots and runs "
                    "(default: validation/results/<name>)")
     v.add_argument("--threads", type=int)
+
+    f = sub.add_parser("fos", help="factor of safety of a soil slope: strength reduction "
+                       "(sph) or Bishop's method (bishop)")
+    f.add_argument("case")
+    f.add_argument("--body", help="soil body to reduce (needed if the case has several)")
+    f.add_argument("--out", help="output folder (default: runs/<case name>_fos)")
+    f.add_argument("--set", dest="overrides", action="append", default=[], metavar="K=V")
+    f.add_argument("--method", choices=["sph", "bishop"], default="sph")
+    f.add_argument("--threads", type=int)
     return p
 
 
@@ -82,9 +89,9 @@ def _set_threads(n):
 
 
 def cmd_run(args):
-    from fsi_sph.config import ConfigError, load_config, load_config_from_run
+    from fsi_sph.config import load_config, load_config_from_run
     from fsi_sph.output import read_restart
-    from fsi_sph.simulation import Simulation, SimulationError
+    from fsi_sph.simulation import Simulation
 
     if args.max_steps is not None and args.max_steps < 0:
         raise UsageError(f"--max-steps {args.max_steps}: must be >= 0")
@@ -227,6 +234,16 @@ def cmd_validate(args):
     return 0
 
 
+def cmd_fos(args):
+    from fsi_sph.soil.strength_reduction import SlopeInputError, fos_command
+
+    _set_threads(args.threads)
+    try:
+        return fos_command(args.case, args.body, args.out, args.overrides, args.method)
+    except SlopeInputError as e:
+        raise UsageError(str(e)) from None
+
+
 def _single_threaded_blas():
     """One BLAS thread (unless the user set one): the Krylov loop of the PPE makes many
     short vector operations (dot, norm) for which multi-threaded OpenBLAS only adds
@@ -238,11 +255,11 @@ def _single_threaded_blas():
 
 def main(argv=None):
     _single_threaded_blas()
-    from fsi_sph.config import ConfigError
 
     args = _parser().parse_args(argv)
     logging.basicConfig(level=args.log_level.upper(), format="%(levelname)s %(name)s: %(message)s")
-    commands = {"run": cmd_run, "info": cmd_info, "plot": cmd_plot, "validate": cmd_validate}
+    commands = {"run": cmd_run, "info": cmd_info, "plot": cmd_plot, "validate": cmd_validate,
+                "fos": cmd_fos}
     try:
         return commands[args.command](args)
     except (ConfigError, UsageError) as e:
@@ -253,7 +270,6 @@ def main(argv=None):
               file=sys.stderr)
         return 130
     except Exception as e:  # a failed run: say what happened, no traceback unless asked
-        from fsi_sph.simulation import SimulationError
 
         if isinstance(e, SimulationError):
             print(f"fsi-sph: run failed: {e}", file=sys.stderr)

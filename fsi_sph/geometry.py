@@ -12,7 +12,7 @@ particles, each with volume ``dx^2``.
 
 import numpy as np
 
-from fsi_sph.config import ConfigError
+from fsi_sph.errors import ConfigError
 
 
 def fill_rectangle(origin, size, dx):

@@ -17,9 +17,7 @@ import math
 
 import numpy as np
 
-
-class SimulationError(RuntimeError):
-    """A run that cannot go on; the message says when, where and why."""
+from fsi_sph.errors import SimulationError
 
 
 def _energy(obj):

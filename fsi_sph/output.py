@@ -44,7 +44,7 @@ def versions() -> dict:
     import pyamg
     import scipy
 
-    from fsi_sph import __version__
+    from fsi_sph.version import __version__
 
     return {"fsi_sph": __version__, "python": sys.version.split()[0], "numpy": np.__version__,
             "numba": numba.__version__, "scipy": scipy.__version__, "pyamg": pyamg.__version__,

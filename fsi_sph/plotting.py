@@ -12,9 +12,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-
-class PlotError(ValueError):
-    """The run file cannot be plotted as asked."""
+from fsi_sph.errors import UsageError
 
 
 def _scalar(values):
@@ -28,8 +26,6 @@ def _scalar(values):
 def plot_run(path, out_dir, field="von_mises", max_snapshots=12):
     """Write ``snapshot_<k>.png`` for evenly spaced snapshots and ``probe_<name>.png`` for
     every probe; returns the list of files written."""
-    from fsi_sph.__main__ import UsageError
-
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     files = []

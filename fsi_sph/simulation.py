@@ -15,10 +15,12 @@ from collections import defaultdict
 from pathlib import Path
 
 from fsi_sph.config import Config
-from fsi_sph.guard import Guard, SimulationError
+from fsi_sph.errors import SimulationError
+from fsi_sph.guard import Guard
 from fsi_sph.probes import make_probe
 from fsi_sph.soil.drucker_prager import DruckerPragerBody
 from fsi_sph.solid.tlsph import ElasticBody
+from fsi_sph.step_table import StepTable
 
 log = logging.getLogger(__name__)
 
@@ -50,6 +52,7 @@ class Simulation:
             self.structures[name] = DruckerPragerBody(name, sec, c.dx, cfg.sph, c.gravity,
                                                       walls)
         self.probes = [make_probe(p, self.bodies()) for p in cfg.probes]
+        self.step_table = StepTable(self.fluid, self.coupling)
         fixed = []
         if self.fluid is not None and self.fluid.walls is not None:
             fixed.append(self.fluid.walls.body["x"])
@@ -79,24 +82,6 @@ class Simulation:
     def n_particles(self) -> int:
         n = sum(b.body.n for b in self.structures.values())
         return n + (self.fluid.n if self.fluid is not None else 0)
-
-    @property
-    def step_columns(self):
-        """Columns of the per-step table of the output (``/steps``)."""
-        cols = ("t", "dt", "n_sub")
-        if self.fluid is not None:
-            cols += ("ppe_iterations", "ppe_residual", "ppe_assemble_s", "ppe_setup_s",
-                     "ppe_solve_s", "ppe_rebuilt")
-        if self._dt_limit_columns:  # viscosity law / implicit step: every dt limit [F 48]
-            cols += ("dt_advective", "dt_viscous_explicit", "dt_force", "nu_max",
-                     "viscous_iterations", "viscous_residual", "viscous_fallback")
-        if self.coupling is not None:
-            cols += ("power_on_structures", "power_on_fluid")
-        return cols
-
-    @property
-    def _dt_limit_columns(self):
-        return self.fluid is not None and self.fluid.viscosity_law is not None
 
     def _timed(self, phase, fn, *args):
         t0 = time.perf_counter()
@@ -134,7 +119,7 @@ class Simulation:
                 coupling.before_fluid()
             self._timed("neighbours", fluid.update_neighbors)
             self._timed("free_surface", fluid.detect_free_surface)
-            if fluid.shifting is not None:
+            if fluid.motion.shifting is not None:
                 self._timed("shift", fluid.shift, dt)
             self._timed("predict", fluid.predict, dt)
             stats = self._timed("ppe", fluid.solve_pressure, dt)
@@ -221,21 +206,8 @@ class Simulation:
         appends to it (or writes ``out_dir/run.h5`` when ``out_dir`` is given).
         Returns a summary dict (steps, wall times, particle-steps per second, status).
         """
-        from fsi_sph.output import RunWriter, read_restart
-
         c = self.cfg.case
-        writer = None
-        if resume is not None:
-            clock, state = read_restart(resume)
-            self.load_state(clock, state)
-            if out_dir is None:
-                writer = RunWriter.reopen(resume, self.t)
-        if out_dir is not None:
-            static = {n: b.static() for n, b in self.bodies().items()}
-            if self.fluid is not None and self.fluid.walls is not None:
-                static["walls"] = self.fluid.walls.static()
-            writer = RunWriter(Path(out_dir) / "run.h5", self.cfg.to_json(), case_file, static,
-                               step_columns=self.step_columns)
+        writer = _open_writer(self, out_dir, case_file, resume)
         rows = {p.name: (p.columns, []) for p in self.probes}
         step_rows = []
         eps = 1e-12 * c.t_end
@@ -245,8 +217,11 @@ class Simulation:
             for p in self.probes:
                 rows[p.name][1].append([self.t, *p.sample()])
 
-        def flush(snapshot, status="running", good=None):
+        def flush(snapshot, status="running", restart_point=None):
+            # restart points: scheduled snapshots and a completed run's end (kept solver
+            # state reset there, as a restart starts); a --max-steps stop is only a snapshot
             nonlocal step_rows
+            restart_point = snapshot if restart_point is None else restart_point
             t0 = time.perf_counter()
             if snapshot:  # output or not, so that the physics never depends on the output
                 for o in self.bodies().values():
@@ -257,8 +232,9 @@ class Simulation:
                 if snapshot:
                     last_snapshot[0] = self.t
                     snap = self._snapshot()
-                writer.write(self.t, self.n_steps, snap, rows, step_rows, self._timing_attrs(),
-                             status, restart=(self.clock(), self.state()) if snapshot else None)
+                writer.write(self.t, self.n_steps, snap, rows, step_rows, _timing_attrs(self),
+                             status,
+                             restart=(self.clock(), self.state()) if restart_point else None)
             for _, r in rows.values():
                 r.clear()
             step_rows = []
@@ -280,18 +256,7 @@ class Simulation:
                     status = f"stopped at max_steps = {max_steps}"
                     break
                 dt, n_sub = self.step(dt_max=c.t_end - self.t, to_end=True)
-                row = [self.t, dt, max(n_sub.values(), default=0)]
-                if self.fluid is not None:
-                    st = self.fluid.last_stats
-                    row += [st.iterations, st.residual, st.assemble_time, st.setup_time,
-                            st.solve_time, float(st.rebuilt)]
-                if self._dt_limit_columns:
-                    lim, vs = self.fluid.dt_limits, self.fluid.viscous_stats
-                    row += [lim["advective"], lim["viscous"], lim["force"], lim["nu_max"],
-                            vs.iterations, vs.residual, float(vs.fallback)]
-                if self.coupling is not None:
-                    row += [self.coupling.power_structure, self.coupling.power_fluid]
-                step_rows.append(row)
+                step_rows.append(self.step_table.row(self.t, dt, n_sub))
                 if bar is not None:
                     bar.update(dt)
                 t0 = time.perf_counter()
@@ -321,8 +286,9 @@ class Simulation:
                     flush(False, status)
                     self._write_last_good(writer, status)
                 else:
-                    flush(last_snapshot[0] < self.t, status)
-                writer.finish(status, self._timing_attrs())
+                    flush(last_snapshot[0] < self.t, status,
+                          restart_point=status == "completed" and last_snapshot[0] < self.t)
+                writer.finish(status, _timing_attrs(self))
         summary = {"status": status, "steps": self.n_steps, "t": self.t,
                    "n_particles": self.n_particles, "particle_steps": self.particle_steps,
                    "loop_time_s": self.timings["loop"], "setup_time_s": self.timings["setup"],
@@ -340,7 +306,7 @@ class Simulation:
         self.load_state(good_clock, good_state)
         snap = self._snapshot()
         self.load_state(failed_clock, failed_state)  # the object keeps the failed state
-        writer.write(good_clock["t"], good_clock["step"], snap, {}, [], self._timing_attrs(),
+        writer.write(good_clock["t"], good_clock["step"], snap, {}, [], _timing_attrs(self),
                      status, restart=(good_clock, good_state), last_good=True)
 
     def _snapshot(self):
@@ -349,11 +315,32 @@ class Simulation:
             snap["walls"] = self.fluid.wall_snapshot()
         return snap
 
-    def _timing_attrs(self):
-        out = {f"{k}_s": float(v) for k, v in self.timings.items()}
-        out["steps"] = self.n_steps
-        out["particle_steps"] = self.particle_steps
-        return out
+
+def _open_writer(sim, out_dir, case_file, resume):
+    """The run file's writer (None without output); with ``resume``, first load its restart
+    state into ``sim`` (and append to that file unless ``out_dir`` is given)."""
+    from fsi_sph.output import RunWriter, read_restart
+
+    writer = None
+    if resume is not None:
+        sim.load_state(*read_restart(resume))
+        if out_dir is None:
+            writer = RunWriter.reopen(resume, sim.t)
+    if out_dir is not None:
+        static = {n: b.static() for n, b in sim.bodies().items()}
+        if sim.fluid is not None and sim.fluid.walls is not None:
+            static["walls"] = sim.fluid.walls.static()
+        writer = RunWriter(Path(out_dir) / "run.h5", sim.cfg.to_json(), case_file, static,
+                           step_columns=sim.step_table.columns)
+    return writer
+
+
+def _timing_attrs(sim):
+    """The run's wall times per phase, steps and particle-steps (output attributes)."""
+    out = {f"{k}_s": float(v) for k, v in sim.timings.items()}
+    out["steps"] = sim.n_steps
+    out["particle_steps"] = sim.particle_steps
+    return out
 
 
 def _progress(enabled, total, start=0.0):

@@ -91,12 +91,13 @@ def _solve(cfg, method, A, b, x0, nf, solver=None):
 def ppe_iterations(dx):
     cfg = load_config(CASE, [f"case.dx={dx}"])
     sim = Simulation(cfg)
-    sim.step()  # builds the first step's PPE (fluid.A, fluid.rhs)
-    f = sim.fluid
+    sim.step()  # builds the first step's PPE (fluid.pressure.A, .rhs)
+    f = sim.fluid.pressure
+    nf = sim.fluid.nf
     out = {"dx": dx, "unknowns": int(f.A.shape[0]), "nnz": int(f.A.nnz),
            "rtol": cfg.fluid.ppe.rtol, "zero_guess": {}, "warm": {}}
     for m in METHODS:
-        _, stats = _solve(cfg, m, f.A, f.rhs, np.zeros(f.A.shape[0]), f.nf)
+        _, stats = _solve(cfg, m, f.A, f.rhs, np.zeros(f.A.shape[0]), nf)
         # iterations the mean convergence factor needs for exactly rtol (not rounded up)
         effective = stats.iterations * np.log(cfg.fluid.ppe.rtol) / np.log(stats.residual)
         out["zero_guess"][m] = {
@@ -106,14 +107,14 @@ def ppe_iterations(dx):
     # a later step, started from the previous pressure, one hierarchy for both methods
     for _ in range(LATER - 2):
         sim.step()
-    x0 = f.p_all.copy()
+    x0 = sim.fluid.p_all.copy()
     sim.step()
     A, b = f.A, f.rhs
-    solver, _ = _solve(cfg, METHODS[0], A, b, x0, f.nf)  # builds the hierarchy
+    solver, _ = _solve(cfg, METHODS[0], A, b, x0, nf)  # builds the hierarchy
     for _ in range(REPS):
         for m in METHODS:
             solver.base_iterations = solver.last_iterations = solver.age = 0  # no rebuild
-            _, st = _solve(cfg, m, A, b, x0, f.nf, solver)
+            _, st = _solve(cfg, m, A, b, x0, nf, solver)
             assert not st.rebuilt
             r = out["warm"].setdefault(m, {"iterations": st.iterations, "vcycles": st.vcycles,
                                            "matvecs": st.matvecs, "residual": st.residual,

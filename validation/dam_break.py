@@ -133,8 +133,8 @@ def validate(quick, data_dir, out_dir):
                                "onset_shift_T": ONSET_SHIFT_T, **speed, **ppe}))
     result = {"case": "dam_break",
               "reference": "surge front, Koshizuka & Oka (1996) and Martin & Moyce (1952); "
-                           "onset-corrected (our T + 0.124 against theirs); peer code at a/dx 50: EDAC 18.0 / "
-                           "23.0 %, implicit ISPH 32.7 / 40.7 %",
+                           "onset-corrected (our T + 0.124 against theirs); peer code at "
+                           "a/dx 50: EDAC 18.0 / 23.0 %, implicit ISPH 32.7 / 40.7 %",
               "targets": {"front_pct_koshizuka at most": 18.0,
                           "front_pct_*_onset below": 10.0, "stretch": 8.0},
               "marks": PEERS, "records": records}

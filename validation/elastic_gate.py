@@ -56,7 +56,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fsi_sph.guard import SimulationError
+from fsi_sph.errors import SimulationError
 from validation.common import CASES, machine, make_record, run_case, write_outputs
 
 CASE = CASES / "dam_break_elastic_gate.toml"

@@ -3,9 +3,7 @@ toe level): SPH strength reduction vs Bishop's simplified method."""
 
 from validation.slope_fos import Slope, validate_slope
 
-SLOPE = Slope("slope_2_cohesive", "clay", [(0.0, 10.0), (5.0, 10.0), (15.0, 0.0), (20.0, 0.0)],
-              height=10.0, ladder=(0.4, 0.2), quick_ladder=(0.4,), t_settle=2.0, t_trial=4.0,
-              damping=10.0, bracket=(0.8, 1.4))
+SLOPE = Slope("slope_2_cohesive", "clay", ladder=(0.4, 0.2), quick_ladder=(0.4,))
 
 
 def validate(quick=False, data_dir=None, out_dir=None):

@@ -3,10 +3,7 @@ SPH strength reduction vs Bishop's simplified method."""
 
 from validation.slope_fos import Slope, validate_slope
 
-SLOPE = Slope("slope_3_cohesive_layer", "clay",
-              [(0.0, 15.0), (10.0, 15.0), (20.0, 5.0), (45.0, 5.0)], height=10.0,
-              ladder=(0.75, 0.5), quick_ladder=(0.75,), t_settle=2.0, t_trial=4.0,
-              damping=15.0, bracket=(0.8, 1.4))
+SLOPE = Slope("slope_3_cohesive_layer", "clay", ladder=(0.75, 0.5), quick_ladder=(0.75,))
 
 
 def validate(quick=False, data_dir=None, out_dir=None):

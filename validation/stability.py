@@ -205,7 +205,7 @@ def _steps_summary(run_file):
 
 
 def run_row(row, quick, out_dir):
-    from fsi_sph.simulation import SimulationError
+    from fsi_sph.errors import SimulationError
 
     over = row.overrides + (row.quick_overrides if quick else [])
     run_dir = out_dir / row.name

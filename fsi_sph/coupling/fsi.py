@@ -21,8 +21,8 @@ import math
 
 import numpy as np
 
-from fsi_sph.coupling import _kernels as K
 from fsi_sph.particles import FieldSpec
+from fsi_sph.sph import interface as K
 
 
 def substep_count(dt_f, dt_s, fixed=None):

@@ -39,12 +39,13 @@ def detect(x, vol, nbr_start, nbr_j, nf, h, kind, out_divr, out_grad_c, out_sigm
     (:func:`_kernels.umbrella_scan`, rows with ``div r < SCAN_BELOW``), and such a row is a
     Dirichlet row (``alpha = 0``). The scan catches a particle on the face of a thin front
     whose ``div r`` is raised by neighbours crowded behind it: as a Poisson row among
-    surface rows it drew an unbounded pressure (docs/session_notes_2026-12-01.md).
+    surface rows it drew an unbounded pressure (docs/numerics/fluid.md, "Umbrella scan").
     With ``isolated`` a row whose fluid neighbours (``j < nf``) are all surface rows is
     a surface (Dirichlet) row too (:func:`_kernels.isolated_rows`): its Poisson row had
     no support but surface rows and walls that extrapolate their pressure from it, and its
     pressure ran away (30 -> 72 kPa per step at a granular front, hydrostatic there a few
-    hundred Pa; docs/session_notes_2026-12-01b.md). Returns the number of rows the scan added.
+    hundred Pa; docs/numerics/fluid.md, "Isolated Poisson rows"). Returns the number of rows
+    the scan added.
     """
     K.position_divergence(x, vol, nbr_start, nbr_j, h, kind, out_divr, out_grad_c, out_sigma)
     out_alpha[:] = blend(out_divr)

@@ -77,7 +77,7 @@ class Periodic:
         xw = fluid.walls.body["x"]
         xi = xw[self.wall_idx].copy()
         xi[:, 0] += self.wall_shift
-        return fluid._fixed_wall_normals(np.vstack([xw, xi]))[:len(xw)]
+        return fluid.fixed_wall_normals(np.vstack([xw, xi]))[:len(xw)]
 
     # ------------------------------------------------------------------ layout
     def rebuild(self, fluid):

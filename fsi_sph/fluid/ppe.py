@@ -26,7 +26,7 @@ import pyamg
 import scipy.sparse as sp
 
 from fsi_sph.fluid import _kernels as K
-from fsi_sph.fluid import amg
+from fsi_sph.fluid import amg, krylov
 
 
 @dataclass
@@ -189,8 +189,8 @@ class PressureSolver:
     def _krylov(self, A, b, x0, bnorm, stats):
         """``A``: the matrix as :func:`amg.as_csr` arrays."""
         t0 = time.perf_counter()
-        counts = amg.Counts()
-        solver = amg.bicgstab if self.cfg.krylov == "bicgstab" else amg.fgmres
+        counts = krylov.Counts()
+        solver = krylov.bicgstab if self.cfg.krylov == "bicgstab" else krylov.fgmres
         kw = {} if self.cfg.krylov == "bicgstab" else {"restart": self.cfg.gmres_restart}
         p, its, res = solver(A, b, x0, self.vcycle, self.cfg.rtol, self.cfg.maxiter,
                              counts=counts, **kw)

@@ -105,7 +105,8 @@ class ViscosityLaw:
         self.cs_dx2 = (cs * dx) ** 2
         self.smagorinsky = self.kind == "smagorinsky" or fluid_cfg.smagorinsky is not None
         # Confining pressure of the mu(I) law. The PPE puts p = 0 at the centres of the
-        # free-surface particles, half a spacing below the real surface (docs/fluid.md), so
+        # free-surface particles, half a spacing below the real surface
+        # (docs/numerics/granular.md, "Pressure offset"), so
         # the ISPH pressure is short of the hydrostatic one by rho |g| dx / 2 everywhere
         # under a free surface. For a pressure-proportional friction this matters near the
         # surface: two rows down the pressure is half the real one, the friction needed

@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from fsi_sph.config import ConfigError
+from fsi_sph.errors import ConfigError
 from fsi_sph.geometry import fill_shapes, in_shapes
 from fsi_sph.neighbors import find_neighbors
 from fsi_sph.particles import Body, FieldSpec
@@ -220,9 +220,12 @@ class ElasticBody:
         b = self.body
         sigma = K.cauchy_stress(b["F"], b["P"])
         s00, s11, s01 = sigma[:, 0, 0], sigma[:, 1, 1], sigma[:, 0, 1]
-        # sigma_zz: nu (s00 + s11) in plane strain (small strain), 0 in plane stress
-        szz = self.lam / (self.lam + self.mu) * 0.5 * (s00 + s11) if self.plane == "strain" \
-            else np.zeros_like(s00)
+        # sigma_zz: nu (s00 + s11) in plane strain (small strain), 0 in plane stress and in a
+        # rigid body (no elastic constants: a floating rigid body's first snapshot divided
+        # by zero here)
+        elastic = self.lam + self.mu > 0.0
+        szz = self.lam / (self.lam + self.mu) * 0.5 * (s00 + s11) \
+            if self.plane == "strain" and elastic else np.zeros_like(s00)
         vm = np.sqrt(0.5 * ((s00 - s11) ** 2 + (s11 - szz) ** 2 + (szz - s00) ** 2) + 3 * s01**2)
         return {"x": b["x"].copy(), "v": b["v"].copy(), "u": b["x"] - b["x0"], "sigma": sigma,
                 "von_mises": vm, "J": np.linalg.det(b["F"])}

@@ -31,7 +31,8 @@ A rigid material (``material.model = "rigid"``, the same rows, the body moved ri
 import numpy as np
 import pytest
 
-from fsi_sph.config import ConfigError, load_config
+from fsi_sph.config import load_config
+from fsi_sph.errors import ConfigError
 from fsi_sph.simulation import Simulation
 
 RHO_F = 1000.0

@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 from fsi_sph.config import load_config
-from fsi_sph.guard import SimulationError
+from fsi_sph.errors import SimulationError
 from fsi_sph.simulation import Simulation
 
 CASE = """
@@ -79,13 +79,13 @@ def test_interface_conservative_rows(tmp_path, rng):
     particle among their neighbours and the corrected form [F 7, F 13] on the others."""
     _, f = _prepared(tmp_path, 0.06)
     field = rng.uniform(0.0, 2e3, len(f.p_all))
-    mixed = f._pressure_gradient(field, np.empty((f.nf, 2)))
-    rows = f._structure_rows(f.nf + f.nw - f.ns)
+    mixed = f.gradient.apply(field, np.empty((f.nf, 2)))
+    rows = f.rows.structure_rows(f.nf + f.nw - f.ns)
     assert 0 < rows.sum() < f.nf
     assert not f.waterline_rows().any()  # submerged: no free-surface row beside it
     for form in ("conservative", "corrected"):
         f.cfg = f.cfg.model_copy(update={"pressure_gradient": form})
-        ref = f._pressure_gradient(field, np.empty((f.nf, 2)))
+        ref = f.gradient.apply(field, np.empty((f.nf, 2)))
         sel = rows if form == "conservative" else ~rows
         np.testing.assert_array_equal(mixed[sel], ref[sel])
         assert not np.allclose(mixed[~sel], ref[~sel])
@@ -100,7 +100,7 @@ def _prepared(tmp_path, y0):
     f = sim.fluid
     f.update_neighbors()
     f.detect_free_surface()
-    f._correction_matrices()
+    f.correction_matrices()
     return sim, f
 
 
@@ -110,11 +110,11 @@ def test_waterline_rows_take_the_corrected_gradient_over_the_whole_support(tmp_p
     neighbour, structure particles included: exact for a linear pressure field."""
     sim, f = _prepared(tmp_path, 0.15)
     rows = f.waterline_rows()
-    assert 0 < rows.sum() < f._structure_rows(f.nf + f.nw - f.ns).sum()
+    assert 0 < rows.sum() < f.rows.structure_rows(f.nf + f.nw - f.ns).sum()
     grad = np.array([120.0, -9810.0])
     f.p_all[:] = 5000.0 + f.x_all @ grad
     f.p_all[:f.nf][rows] = 0.0  # their Dirichlet value (a linear field through it)
-    total = f._pressure_gradient(f.p_all, np.empty((f.nf, 2)))
+    total = f.gradient.apply(f.p_all, np.empty((f.nf, 2)))
     on_fluid = sim.coupling.forces()  # the pair force the fluid gets from the structure
     total -= on_fluid / (f.body["m"] / f.rho)[:, None]  # as a gradient: -F / V
     # reference: L_i sum_j V_j (p_j - p_i) grad W_ij over every neighbour, p_i = 0

@@ -5,7 +5,7 @@ With the walls' pressure floor (``fluid.wall_suction = false``) taken on every r
 incremental projection's pressure noise was rectified into a push off the bed: the bed row
 rose from 0.50 to 0.63 dx, the layer dilated and ran away after 2 s (profile error 28 %
 averaged over 1.5-3 s, 68 % at 3 s). With the floor on the non-interior rows only
-(isph.py ``_floor_rows``): 6.4 % and the bed row at 0.54 dx (docs/numerics/fluid.md, "Walls without suction").
+(rows.py ``RowRoles.floor_rows``): 6.4 % and the bed row at 0.54 dx (docs/numerics/fluid.md, "Walls without suction").
 This is the unjittered draw, deterministic (the same with 1 and 2 threads). The fix
 is partial: jittered draws hold the profile through 2.5 s (worst snapshot 7.6-9.4 % over
 1.5-2.4 s) but still degrade afterwards (28 and 46 % at 3 s, as with no floor at all; with

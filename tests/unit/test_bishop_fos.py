@@ -1,13 +1,11 @@
-"""Bishop's simplified method (validation/bishop.py) on cases checked by hand."""
+"""Limit equilibrium (fsi_sph/soil/limit_equilibrium.py): Bishop's simplified method and the
+infinite slope on cases checked by hand."""
 
 import math
-import sys
-from pathlib import Path
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
-from validation.bishop import bishop_fos, critical_circle  # noqa: E402
+from fsi_sph.soil.limit_equilibrium import bishop_fos, critical_circle, infinite_slope_fos
 
 GAMMA = 20.0e3
 C = 20.0e3
@@ -43,3 +41,24 @@ def test_bishop_not_below_fellenius_with_friction():
                for b, W, ca in zip(s["b"], s["W"], cos_a, strict=True)) / sum(W * sa for W, sa in
                                                                   zip(s["W"], s["sin_a"], strict=True))
     assert F > fell > 0.5
+
+
+def test_infinite_slope_by_hand():
+    """c = 0: tan(phi)/tan(beta) at any depth (0.364 for slope 1 of [S 5-5]); with c the
+    cohesive share c/(gamma z sin(beta) cos(beta)) is added."""
+    assert infinite_slope_fos(20.0, 45.0, depth=3.0) == pytest.approx(
+        math.tan(math.radians(20.0)), rel=1e-12)
+    assert infinite_slope_fos(30.0, 20.0, 5e3, 2e4, 2.0) == pytest.approx(
+        math.tan(math.radians(30.0)) / math.tan(math.radians(20.0))
+        + 5e3 / (2e4 * 2.0 * math.sin(math.radians(20.0)) * math.cos(math.radians(20.0))),
+        rel=1e-12)
+
+
+def test_cohesionless_critical_circle_tends_to_the_infinite_slope():
+    """c = 0: the critical circle is the shallowest admitted one and its F tends to
+    tan(phi)/tan(beta) from above (slope 1 of [S 5-5], circles at least 5 % of H deep)."""
+    slope = [(0.0, 1.0), (1.0, 1.0), (2.0, 0.0), (3.5, 0.0)]
+    circ = critical_circle(slope, 0.0, 20.0, 2080 * 9.81, n_centres=10, n_radii=8,
+                           n_starts=2)
+    f_inf = infinite_slope_fos(20.0, 45.0)
+    assert f_inf < circ.fos < 1.03 * f_inf

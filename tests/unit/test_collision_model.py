@@ -1,4 +1,4 @@
-"""Particle collision model (``fluid.collision``; fsi_sph/fluid/_kernels.py
+"""Particle collision model (``fluid.collision``; fsi_sph/fluid/_kernels/motion.py
 ``collision_dv``): approaching fluid pairs closer than the contact distance lose the
 approach velocity as in an inelastic collision, with equal and opposite momentum changes."""
 

@@ -7,7 +7,8 @@ import pytest
 from pydantic import ValidationError
 
 from fsi_sph.__main__ import main
-from fsi_sph.config import ConfigError, load_config
+from fsi_sph.config import load_config
+from fsi_sph.errors import ConfigError
 
 GOOD = """
 [case]

@@ -52,7 +52,7 @@ def test_momentum_exchange_sums_to_zero(tmp_path):
 def test_coupling_needs_conservative_gradient(tmp_path):
     import pytest
 
-    from fsi_sph.config import ConfigError
+    from fsi_sph.errors import ConfigError
 
     p = tmp_path / "c.toml"
     p.write_text(CASE.replace('pressure_gradient = "conservative"\n', ""))
@@ -61,7 +61,7 @@ def test_coupling_needs_conservative_gradient(tmp_path):
 
 
 def test_implicit_structure_rows_match_formula(rng):
-    """Structure row w of the PPE with the implicit acceleration (fsi_sph/fluid/_kernels.py,
+    """Structure row w of the PPE with the implicit acceleration (fsi_sph/fluid/_kernels/pressure.py,
     ppe_fill): (1 + sum k) p_w + sum (k - w_wf) p_f = rho (g - a~) . rbar, scaled by diag_ref,
     k_wf = -imp V_f grad W_wf . rbar; with imp = 0 it is Adami's row."""
     from fsi_sph.fluid.ppe import assemble
@@ -241,12 +241,12 @@ def test_structure_guard_gives_the_structure_the_opposite_impulse(tmp_path):
     near = (np.abs(x[:, 1] - 0.205) < 0.006) & (x[:, 0] > 0.1) & (x[:, 0] < 0.2)
     assert near.sum() >= 5
     x[near, 1] = 0.1985  # 0.35 dx from the block's surface particles: inside the guard gap
-    fluid._sync()
+    fluid.sync()
     v = np.zeros((fluid.nf, 2))
     v[near] = [0.3, -1.0]
     fluid.v_old[:] = v
     before = v.copy()
-    fluid._guard(dt, v)
+    fluid.kinematic_guard.velocities(dt, v)
     m = fluid.body["m"][:, None]
     assert np.all(v[near, 1] > -1.0)  # the inflow was cut
     fluid_impulse = np.sum(m * (v - before), axis=0)

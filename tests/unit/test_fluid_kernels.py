@@ -412,9 +412,9 @@ structures = ["post"]
     sim = Simulation(load_config(None, text=text))
     fl = sim.fluid
     fl.body["x"][:, 0] += 0.003 * (fl.body["x"][:, 0] > 0.185)  # last column 0.7 dx off
-    fl._sync()
+    fl.sync()
     dr = np.tile([0.002, -0.001], (fl.nf, 1))  # a shift into the post (and the floor)
-    fl._guard_shift(dr)
+    fl.kinematic_guard.shift(dr)
     x = fl.body["x"]
     near_post = (x[:, 0] > 0.185) & (x[:, 1] > 0.02) & (x[:, 1] < 0.08)
     assert near_post.sum() >= 5

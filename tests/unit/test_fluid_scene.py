@@ -7,7 +7,8 @@ import sys
 import h5py
 import pytest
 
-from fsi_sph.config import ConfigError, load_config
+from fsi_sph.config import load_config
+from fsi_sph.errors import ConfigError
 from fsi_sph.simulation import Simulation
 
 FLUID = """

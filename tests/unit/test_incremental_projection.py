@@ -147,7 +147,7 @@ def test_increment_rows_impose_the_standard_conditions_on_the_new_pressure():
     pure Poisson row ``A phi`` is the source."""
     sim = _run(WATER.replace("VISCOUS", ""), steps=3)
     f = sim.fluid
-    A, b = f.A, f.rhs  # the last (incremental) solve's matrix
+    A, b = f.pressure.A, f.pressure.rhs  # the last (incremental) solve's matrix
     from scipy.sparse.linalg import spsolve
 
     rng = np.random.default_rng(1)
@@ -188,7 +188,7 @@ def test_incremental_restart_is_bit_identical(tmp_path):
 
 
 def test_incremental_projection_with_coupling_is_refused():
-    from fsi_sph.config import ConfigError
+    from fsi_sph.errors import ConfigError
 
     text = """
 [case]

@@ -9,8 +9,8 @@ near mu_s (the Bagnold case ran 10-18 % slow)."""
 import numpy as np
 import pytest
 
-from fsi_sph.fluid import viscous as V
-from fsi_sph.fluid.isph import ETA, lattice_scales
+from fsi_sph.fluid import viscous_operators as V
+from fsi_sph.fluid.lattice import ETA, lattice_scales
 from fsi_sph.neighbors import find_neighbors
 from fsi_sph.sph.kernels import KERNELS, kernel_dw
 

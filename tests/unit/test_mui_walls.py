@@ -11,7 +11,6 @@ import numpy as np
 import pytest
 
 from fsi_sph.config import load_config
-from fsi_sph.fluid import viscous as V
 from fsi_sph.simulation import Simulation
 
 COLUMN = """
@@ -61,7 +60,7 @@ def test_wall_pressure_acceleration_of_a_column_at_rest_is_gravity():
     f = sim.fluid
     col_of = np.full(len(f.x_all), -1)
     col_of[:f.nf] = np.arange(f.nf)
-    aw = V.wall_pressure_acceleration(f, col_of)
+    aw = f.viscous.wall_pressure_acceleration(col_of)
     has = np.diff(f.wf_start) > 0
     assert has.sum() > 20
     assert np.abs(aw[has] - [0.0, -9.81]).max() < 0.1 * 9.81

@@ -10,8 +10,9 @@ import pytest
 
 from fsi_sph.__main__ import main
 from fsi_sph.config import load_config
+from fsi_sph.errors import SimulationError
 from fsi_sph.output import read_probe
-from fsi_sph.simulation import Simulation, SimulationError
+from fsi_sph.simulation import Simulation
 from fsi_sph.solid.tlsph import ElasticBody
 
 CASE = """

@@ -7,7 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from fsi_sph.config import ConfigError, load_config
+from fsi_sph.config import load_config
+from fsi_sph.errors import ConfigError
 from fsi_sph.solid.tlsph import ElasticBody
 
 CASE = """

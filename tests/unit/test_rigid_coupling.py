@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from fsi_sph.config import ConfigError, load_config
+from fsi_sph.config import load_config
+from fsi_sph.errors import ConfigError
 from fsi_sph.simulation import Simulation
 
 CASE = """
@@ -59,10 +60,10 @@ def test_generalised_force_is_the_structure_force(tmp_path, rng, text):
     fl.detect_free_surface()
     assert fl.waterline_rows().any() == (text is THROUGH_SURFACE)
     fl.p_all[:] = rng.uniform(-1e3, 3e3, len(fl.p_all))
-    U, G = fl._rigid_terms()
+    U, G = fl.boundary.rigid_terms()
     c.forces()
     gen = G @ fl.p_all
-    _, body_of, mass, inertia, centre = fl.rigid
+    _, body_of, mass, inertia, centre = fl.boundary.rigid
     for k, (body, sl) in enumerate(zip(c.bodies, c.slices, strict=True)):
         f = c.on_structure[sl]
         r = body.body["x"] - centre[k]

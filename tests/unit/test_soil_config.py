@@ -5,7 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from fsi_sph.config import ConfigError, load_config
+from fsi_sph.config import load_config
+from fsi_sph.errors import ConfigError
 from fsi_sph.geometry import fill_polygon, in_polygon
 from fsi_sph.simulation import Simulation
 

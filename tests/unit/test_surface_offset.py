@@ -1,7 +1,7 @@
 """The free surface half a spacing outside the surface particles (``fluid.surface_offset``,
-fsi_sph/fluid/isph.py ``_surface_pressure``): the surface rows' pressure is the last
-pressure extrapolated along the outward normal to the surface ``delta = offset dx`` away,
-``p_s = delta max(0, -n . grad p)``.
+fsi_sph/fluid/pressure_solve.py ``PressureSolve.surface_pressure``): the surface rows'
+pressure is the last pressure extrapolated along the outward normal to the surface
+``delta = offset dx`` away, ``p_s = delta max(0, -n . grad p)``.
 
 A tank at rest: with the offset 0.5 every particle row carries the weight of the rows above
 it and of its own upper half, ``p = rho g (H - y)`` (H the block's top, a half spacing above
@@ -70,7 +70,7 @@ def test_free_fall_keeps_the_surface_at_zero_pressure():
 
 
 def test_mu_i_half_spacing_is_not_counted_twice():
-    from fsi_sph.config import ConfigError
+    from fsi_sph.errors import ConfigError
 
     text = """
 [case]
@@ -101,8 +101,8 @@ def test_surface_pressure_is_the_bounded_extrapolation(factor, expected):
     f = sim.fluid
     y = f.x_all[:, 1]
     f.p_all[:] = factor * RHO * G * (H - y)
-    f._correction_matrices()
-    ps = f._surface_pressure()
+    f.correction_matrices()
+    ps = f.pressure.surface_pressure()
     b = f.body
     top = (b["x"][:, 1] > H - DX) & (b["x"][:, 0] > 2 * DX) & (b["x"][:, 0] < 0.2 - 2 * DX)
     assert np.allclose(ps[top], expected * 0.5 * RHO * G * DX, rtol=1e-6, atol=1e-9)
@@ -111,7 +111,7 @@ def test_surface_pressure_is_the_bounded_extrapolation(factor, expected):
 
 
 def test_offset_with_the_scan_is_a_config_error():
-    from fsi_sph.config import ConfigError
+    from fsi_sph.errors import ConfigError
 
     text = f"""
 [case]

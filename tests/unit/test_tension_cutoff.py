@@ -1,6 +1,6 @@
 """Tension cut-off of a cohesionless material (``fluid.tension_cutoff``,
-fsi_sph/fluid/isph.py ``_cut_tension``): negative pressures are set to 0 after the pressure
-solve and the correction uses the cut-off field, so a region in tension opens (grains
+fsi_sph/fluid/pressure_solve.py ``PressureSolve.cut_tension``): negative pressures are set
+to 0 after the pressure solve and the correction uses the cut-off field, so a region in tension opens (grains
 separate) instead of pulling its neighbours back.
 
 A square block of fluid in zero gravity is given the velocity ``u = k (x - x_c)`` (div u =
@@ -109,7 +109,7 @@ def test_row_roles_follow_periodic_images():
     sim = Simulation(load_config(case, ["case.dx=0.001"]))
     f = sim.fluid
     f.update_neighbors()
-    fluid_of, wall = f.fluid_of, f.wall_rows
+    fluid_of, wall = f.rows.fluid_of, f.rows.wall_rows
     rows, src = f.periodic.rows, f.periodic.src
     assert (src < f.nf).sum() > 0 and (src >= f.nf).sum() > 0  # both kinds of images
     assert np.array_equal(fluid_of[rows], np.where(src < f.nf, src, -1))
@@ -121,7 +121,7 @@ def test_row_roles_follow_periodic_images():
 def test_wall_floor_acts_on_non_interior_rows_only():
     """``fluid.wall_suction = false``: the floor (_kernels.wall_floor) changes the pressure
     gradient of the free-surface and near-surface rows, never that of an interior row
-    (isph.py ``_floor_rows``: beside interior rows a pairwise floor only rectified the
+    (rows.py ``RowRoles.floor_rows``: beside interior rows a pairwise floor only rectified the
     pressure's particle-scale noise into a push off the wall). A noisy pressure on a layer
     at rest on a floor: interior rows get the gradient without the floor, the others the
     floored one, and the floor does change some of those."""
@@ -143,16 +143,16 @@ tanks = [{ origin = [0.0, 0.0], size = [0.04, 0.03] }]
     f = sim.fluid
     f.update_neighbors()
     f.detect_free_surface()
-    f._correction_matrices()
+    f.correction_matrices()
     nf = f.nf
     rng = np.random.default_rng(5)
     p = 1000.0 * 9.81 * (0.012 - f.x_all[:, 1]) + rng.normal(scale=20.0, size=len(f.x_all))
-    got = f._pressure_gradient(p, np.empty((nf, 2)), floor="increment")
+    got = f.gradient.apply(p, np.empty((nf, 2)), floor="increment")
     jmax, every_row = f.nf + f.nw - f.ns, np.ones(nf, dtype=bool)
-    plain = f._gradient_kernel(p, jmax, f.no_rows, every_row, f.no_rg, np.empty((nf, 2)))
-    floored = f._gradient_kernel(p, jmax, f.wall_rows, every_row, f.no_rg, np.empty((nf, 2)))
+    plain = f.gradient.with_rows(p, jmax, f.rows.no_rows, every_row, f.rows.no_rg, np.empty((nf, 2)))
+    floored = f.gradient.with_rows(p, jmax, f.rows.wall_rows, every_row, f.rows.no_rg, np.empty((nf, 2)))
     interior = f.body["class"] == 0
-    beside_walls = f._rows_beside_walls()
+    beside_walls = f.rows.beside_walls()
     assert (interior & beside_walls).sum() > 10 and (~interior & beside_walls).sum() > 4
     assert np.array_equal(got[interior], plain[interior])
     assert np.array_equal(got[~interior], floored[~interior])
@@ -162,12 +162,12 @@ tanks = [{ origin = [0.0, 0.0], size = [0.04, 0.03] }]
 
 @pytest.mark.parametrize("gap_rows", [False, True])
 def test_relaxation_gap_rows_pull_back_a_lifted_bed_row(gap_rows):
-    """``fluid.relaxation_gap_rows`` (isph.py ``_truncated_for_relaxation``): a layer whose
+    """``fluid.relaxation_gap_rows`` (rows.py ``RowRoles.truncated_for_relaxation``): a layer whose
     rows stand 0.2 dx too high above the floor (its bed row lifted, div r below DIVR_FULL):
     off, the expansion of those rows is not relaxed (their support counts as truncated);
     on, the interior rows with div r >= DIVR_GAP and at least half a support of fluid
     neighbours are relaxed; a lone particle on the floor (few fluid neighbours) never."""
-    from fsi_sph.fluid import isph
+    from fsi_sph.fluid import lattice, rows
 
     text = f"""
 [case]
@@ -194,14 +194,14 @@ boxes = [{{ origin = [-0.01, -0.006], size = [0.1, 0.006] }}]
     bed = (x[:, 1] < 0.002) & (x[:, 0] > 0.008) & (x[:, 0] < 0.032)  # away from the ends
     lone = x[:, 0] > 0.06
     assert bed.sum() >= 10 and lone.sum() == 1
-    assert np.all((b["divr"][bed] < isph.DIVR_FULL) & (b["divr"][bed] >= isph.DIVR_GAP))
+    assert np.all((b["divr"][bed] < lattice.DIVR_FULL) & (b["divr"][bed] >= rows.DIVR_GAP))
     assert np.all(b["class"][bed] == 0)
-    truncated = f._truncated_for_relaxation()
+    truncated = f.rows.truncated_for_relaxation()
     assert truncated[lone].all()
     assert truncated[bed].all() != gap_rows
     # the relaxation source of a uniformly dilated packing: the bed rows pull back only with
     # the option, the lone particle never (not interior: a surface particle)
     b["sigma"][:] = 0.97 * f.sigma0
-    src = f._relaxation_source(1e-3)
+    src = f.pressure.relaxation_source(1e-3)
     assert np.all(src[bed] < 0.0) == gap_rows and np.all(src[bed] == 0.0) != gap_rows
     assert src[lone].max() == 0.0

@@ -12,7 +12,9 @@ from numpy.testing import assert_allclose
 
 from fsi_sph.fluid import _kernels as K
 from fsi_sph.fluid import viscous as V
-from fsi_sph.fluid.isph import lattice_scales
+from fsi_sph.fluid import viscous_operators as VO
+from fsi_sph.fluid import viscous_solvers as VS
+from fsi_sph.fluid.lattice import lattice_scales
 from fsi_sph.neighbors import find_neighbors
 from fsi_sph.sph.kernels import KERNELS, kernel_dw
 from tests.conftest import lattice
@@ -43,11 +45,11 @@ def _kernel_term(x, v, vol, nu, L, start, j, nf, col_of):
     gv = np.zeros((nf, 2, 2))
     K.gradients(x, np.zeros(len(x)), v, vol, L, start, j, nf, H, KIND, gp, gv)
     tau = nu[:nf, None, None] * np.transpose(gv, (0, 2, 1))
-    fs, fj = V.fluid_lists(start, j, col_of)
+    fs, fj = VO.fluid_lists(start, j, col_of)
     Lf = np.empty((nf, 2, 2))
     K.correction_matrices(x, vol, fs, fj, H, KIND, Lf)
     out = np.empty((nf, 2))
-    V.transpose_stress_divergence(x, vol, np.ascontiguousarray(tau), fs, fj, col_of, Lf, nf,
+    VO.transpose_stress_divergence(x, vol, np.ascontiguousarray(tau), fs, fj, col_of, Lf, nf,
                                   H, KIND, out)
     return out
 
@@ -137,7 +139,7 @@ def test_transpose_term_on_a_perturbed_lattice_has_no_bias():
         K.gradients(x, np.zeros(len(x)), u, vol, L, start, j, len(x), 1.2 * dx, KIND, gp, gv)
         tau = np.ascontiguousarray(nu[:, None, None] * np.transpose(gv, (0, 2, 1)))
         out = np.empty((len(x), 2))
-        V.transpose_stress_divergence(x, vol, tau, start, j, col_of, L, len(x), 1.2 * dx, KIND,
+        VO.transpose_stress_divergence(x, vol, tau, start, j, col_of, L, len(x), 1.2 * dx, KIND,
                                       out)
         inner = np.all((x > 0.5) & (x < 1.1), axis=1)
         ref = 0.5 * x[inner][:, ::-1]
@@ -166,7 +168,7 @@ def test_transpose_matrix_equals_the_kernel(with_mirror):
         target = rng.normal(size=(nb, 2))
         mirror = (S, target)
         v[nf:] = target - S @ v[:nf]
-    B, e = V.transpose_operator(x, vol, nu[:nf], L, start, j, nf, H, KIND, col_of, v, mirror)
+    B, e = VO.transpose_operator(x, vol, nu[:nf], L, start, j, nf, H, KIND, col_of, v, mirror)
     assert_allclose(B.tocsr() @ v[:nf].T.reshape(-1), B @ v[:nf].T.reshape(-1), rtol=1e-12,
                     atol=1e-12)
     U = v[:nf].T.reshape(-1)
@@ -180,7 +182,7 @@ def test_coupled_solve_matches_the_direct_solve():
     LU's answer of a coupled 2-component system like the stress operator's: a stiff
     diffusion block per component (I - dt nu lap, dt nu / dx^2 = 500) coupled by a
     grad-div-like part of the same order."""
-    from fsi_sph.fluid.viscous import solve_coupled, solve_direct
+    from fsi_sph.fluid.viscous_solvers import solve_coupled, solve_direct
 
     m = 24
     lap1 = sp.diags_array([np.ones(m - 1), -2.0 * np.ones(m), np.ones(m - 1)],
@@ -202,15 +204,15 @@ def test_coupled_solve_matches_the_direct_solve():
 
 def test_amplification_bound():
     rhs = np.array([[0.1, -0.3], [0.0, 0.2]])
-    assert not V.amplifies(rhs, rhs)
-    assert not V.amplifies(1.9 * rhs, rhs)
-    assert V.amplifies(np.array([[0.0, 0.0], [0.25, 0.0]]), rhs)  # x: 0.25 > 2 x 0.1
-    assert V.amplifies(np.array([[1e-13, 0.0], [0.0, 0.0]]), np.zeros((2, 2))) is False
-    assert V.amplifies(np.array([[1e-3, 0.0], [0.0, 0.0]]), np.zeros((2, 2)))
+    assert not VS.amplifies(rhs, rhs)
+    assert not VS.amplifies(1.9 * rhs, rhs)
+    assert VS.amplifies(np.array([[0.0, 0.0], [0.25, 0.0]]), rhs)  # x: 0.25 > 2 x 0.1
+    assert VS.amplifies(np.array([[1e-13, 0.0], [0.0, 0.0]]), np.zeros((2, 2))) is False
+    assert VS.amplifies(np.array([[1e-3, 0.0], [0.0, 0.0]]), np.zeros((2, 2)))
 
 
 class _Cluster:
-    """The few attributes of a fluid that viscous._solve_step reads: a perturbed lattice,
+    """The few attributes of a fluid's particle set that ViscousStep.solve_step reads: a perturbed lattice,
     all fluid (no boundary rows)."""
 
     def __init__(self, nu):
@@ -223,12 +225,11 @@ class _Cluster:
         self.v_all = np.zeros((36, 2))
         self.v_old = rng.normal(size=(36, 2)) * 0.01
         self.cfg = type("cfg", (), {"viscous_rtol": 1e-10})()
-        self.morris_pre = None
 
 
 def _morris_matrix(fl, dt):
     c = np.zeros(len(fl.ff_j))
-    V.pair_coefficients(fl.x_all, fl.vol_all, fl.nu_all, fl.ff_start, fl.ff_j, fl.nf, fl.h,
+    VO.pair_coefficients(fl.x_all, fl.vol_all, fl.nu_all, fl.ff_start, fl.ff_j, fl.nf, fl.h,
                         fl.kernel, (0.1 * H) ** 2, c)
     rows = np.repeat(np.arange(fl.nf), np.diff(fl.ff_start))
     C = sp.csr_array((c, (rows, fl.ff_j)), shape=(fl.nf, fl.nf))
@@ -245,12 +246,12 @@ def test_stress_step_that_amplifies_falls_back_to_the_morris_step(monkeypatch):
     dt = 5e-3
     A = _morris_matrix(fl, dt)
     rhs = fl.v_old + np.array([0.0, -9.81 * dt])
-    good, _ = V._solve_step(fl, A, rhs, dt, fl.col_of, None, stress=False)
+    good, _ = V.ViscousStep(fl, None, None, None, None).solve_step(A, rhs, dt, fl.col_of, None, stress=False)
     assert np.abs(good).max() <= np.abs(rhs).max() * (1 + 1e-9)  # the Morris max principle
     bad_B = (1.0 - 1e-4) * sp.csr_array(sp.block_diag([A, A])) / dt
     monkeypatch.setattr(V, "transpose_operator",
                         lambda *a, **k: (bad_B, np.zeros((fl.nf, 2))))
-    u, stats = V._solve_step(fl, A, rhs, dt, fl.col_of, None, stress=True)
+    u, stats = V.ViscousStep(fl, None, None, None, None).solve_step(A, rhs, dt, fl.col_of, None, stress=True)
     assert stats.fallback
     assert_allclose(u, good, rtol=1e-8, atol=1e-12)
 
@@ -263,8 +264,8 @@ def test_a_regular_stress_step_is_kept():
     dt = 10.0 * DX * DX / 0.2
     A = _morris_matrix(fl, dt)
     rhs = fl.v_old + np.array([0.0, -9.81 * dt])
-    u, stats = V._solve_step(fl, A, rhs, dt, fl.col_of, None, stress=True)
-    morris, _ = V._solve_step(fl, A, rhs, dt, fl.col_of, None, stress=False)
+    u, stats = V.ViscousStep(fl, None, None, None, None).solve_step(A, rhs, dt, fl.col_of, None, stress=True)
+    morris, _ = V.ViscousStep(fl, None, None, None, None).solve_step(A, rhs, dt, fl.col_of, None, stress=False)
     assert not stats.fallback
     assert np.abs(u - morris).max() > 1e-6 * np.abs(morris).max()
 
@@ -274,9 +275,9 @@ def test_coupled_matrix_product_equals_the_assembled_matrix():
     fl = _Cluster(nu=0.2)
     dt = 1e-3
     A = _morris_matrix(fl, dt)
-    B, _ = V.transpose_operator(fl.x_all, fl.vol_all, fl.nu_all, fl.L, fl.ff_start, fl.ff_j,
+    B, _ = VO.transpose_operator(fl.x_all, fl.vol_all, fl.nu_all, fl.L, fl.ff_start, fl.ff_j,
                                 fl.nf, fl.h, fl.kernel, fl.col_of, fl.v_all)
-    M = V.CoupledMatrix(A, B, dt)
+    M = VS.CoupledMatrix(A, B, dt)
     U = np.random.default_rng(2).normal(size=2 * fl.nf)
     assert_allclose(M @ U, M.tocsr() @ U, rtol=1e-12, atol=1e-12)
     assert M.tocsr().shape == (2 * fl.nf, 2 * fl.nf)

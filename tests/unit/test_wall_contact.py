@@ -1,5 +1,5 @@
-"""``fluid.wall_contact = "inelastic"`` (fsi_sph/fluid/isph.py ``_inelastic_contact``): a
-particle in the guard's band (dx/2 from a wall) or reaching it within the step loses its
+"""``fluid.wall_contact = "inelastic"`` (fsi_sph/fluid/kinematic_guard.py
+``KinematicGuard.inelastic_contact``): a particle in the guard's band (dx/2 from a wall) or reaching it within the step loses its
 velocity into the wall before the pressure solve.
 
 A water block at rest on the floor, one particle of its bottom row driven down at 4 m/s

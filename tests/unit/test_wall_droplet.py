@@ -1,5 +1,5 @@
-"""A droplet beside a vertical wall falls (``fluid.wall_pressure``, fsi_sph/fluid/isph.py
-``_wall_body_force``).
+"""A droplet beside a vertical wall falls (``fluid.wall_pressure``, fsi_sph/fluid/boundary.py
+``BoundaryRows.wall_body_force``).
 
 A single water particle half a spacing from a vertical tank wall, far above the floor,
 falls freely (the water's viscosity is negligible over 0.05 s). With Adami's wall pressure

@@ -1,0 +1,4 @@
+"""The package version (its own module, so that any module can read it without importing
+the package's public names)."""
+
+__version__ = "0.1.0"

@@ -1,0 +1,120 @@
+"""Safety net for refactoring: a few short scenes end bit for bit where the stored states say.
+
+Each scene runs a few tens of steps at a coarse resolution, and every final array of every
+body (plus each body's extra state, e.g. the fluid's stacked pressures, and the clock) must
+equal the stored reference exactly (``np.array_equal``). The references live in
+``tests/data/bit_identical.npz``; regenerate them deliberately (only after a change that is
+meant to change the results) with
+
+    NUMBA_NUM_THREADS=1 python tests/regression/test_bit_identical.py --regen
+
+The scenes cover the fluid alone (dam break, shifting), fluid + elastic structure (the gate:
+interface rows, implicit structure rows, collisions), a floating rigid body (rigid rows,
+waterline rows), the mu(I) granular layer (implicit viscous step, incremental projection,
+periodic x, trapezoid positions) and Drucker-Prager soil (a slope).
+"""
+
+import sys
+from pathlib import Path
+
+import numba
+import numpy as np
+import pytest
+
+from fsi_sph.config import load_config
+from fsi_sph.simulation import Simulation
+
+ROOT = Path(__file__).resolve().parents[2]
+CASES = ROOT / "cases"
+DATA = ROOT / "tests" / "data" / "bit_identical.npz"
+
+FLOATING_BOX = """
+[case]
+t_end = 1.0
+dx = 0.012
+gravity = [0.0, -9.81]
+output_every = 10.0
+[fluid]
+material = { rho0 = 1000.0, nu = 1.0e-6 }
+blocks = [{ origin = [0.0, 0.0], size = [0.6, 0.24] }]
+pressure_gradient = "interface_conservative"
+dt_max = 1.0e-3
+[fluid.shifting]
+model = "fickian"
+[fluid.collision]
+distance = 0.5
+[walls]
+layers = 3
+tanks = [{ origin = [0.0, 0.0], size = [0.6, 0.4] }]
+[solid.box]
+material = { model = "rigid", rho0 = 500.0 }
+blocks = [{ origin = [0.24, 0.18], size = [0.12, 0.12] }]
+[coupling]
+structures = ["box"]
+"""
+
+#: scene -> (case file or inline TOML, overrides, steps)
+SCENES = {
+    "dam_break": ("dam_break.toml", ["case.dx=0.05"], 30),
+    "elastic_gate": ("dam_break_elastic_gate.toml", ["case.dx=0.0025"], 20),
+    "floating_box": (FLOATING_BOX, [], 25),
+    "mu_i_layer": ("bagnold.toml", ["case.dx=0.001"], 30),
+    "granular_collapse": ("granular_collapse.toml", ["case.dx=0.02"], 20),
+    "soil_slope": ("slope_1_granular.toml", ["case.dx=0.05"], 30),
+}
+
+
+def run_scene(name):
+    """Run one scene on one numba thread -> {key: array} of its final state."""
+    src, over, steps = SCENES[name]
+    if src.endswith(".toml"):
+        cfg = load_config(CASES / src, over)
+    else:
+        cfg = load_config(None, over, text=src)
+    threads = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        sim = Simulation(cfg)
+        for _ in range(steps):
+            sim.step()
+        state = sim.state()
+    finally:
+        numba.set_num_threads(threads)
+    out = {f"{name}/clock/t": np.float64(sim.t), f"{name}/clock/step": np.int64(sim.n_steps)}
+    for body, arrays in state.items():
+        for field, v in arrays.items():
+            out[f"{name}/{body}/{field}"] = np.asarray(v)
+    return out
+
+
+@pytest.fixture(scope="module")
+def reference():
+    if not DATA.exists():
+        pytest.fail(f"{DATA} missing: run this file with --regen (see its docstring)")
+    with np.load(DATA) as f:
+        return {k: f[k] for k in f.files}
+
+
+@pytest.mark.parametrize("name", list(SCENES))
+def test_bit_identical(name, reference):
+    got = run_scene(name)
+    want = {k: v for k, v in reference.items() if k.startswith(f"{name}/")}
+    assert sorted(got) == sorted(want), "the set of stored fields changed"
+    diff = [k for k in want if got[k].dtype != want[k].dtype or not np.array_equal(got[k], want[k])]
+    assert not diff, f"not bit-identical: {diff}"
+
+
+def regenerate():
+    out = {}
+    for name in SCENES:
+        out.update(run_scene(name))
+        print(f"{name}: {sum(k.startswith(name + '/') for k in out)} arrays", flush=True)
+    DATA.parent.mkdir(parents=True, exist_ok=True)
+    np.savez_compressed(DATA, **out)
+    print(f"wrote {DATA} ({DATA.stat().st_size} bytes)")
+
+
+if __name__ == "__main__":
+    if "--regen" not in sys.argv:
+        sys.exit("usage: python tests/regression/test_bit_identical.py --regen")
+    regenerate()
