@@ -6,7 +6,7 @@ equal the stored reference exactly (``np.array_equal``). The references live in
 ``tests/data/bit_identical.npz``; regenerate them deliberately (only after a change that is
 meant to change the results) with
 
-    NUMBA_NUM_THREADS=1 python tests/regression/test_bit_identical.py --regen
+    NUMBA_NUM_THREADS=1 python -m tests.regression.test_bit_identical --regen
 
 The scenes cover the fluid alone (dam break, shifting), fluid + elastic structure (the gate:
 interface rows, implicit structure rows, collisions), a floating rigid body (rigid rows,
@@ -23,41 +23,20 @@ import pytest
 
 from fsi_sph.config import load_config
 from fsi_sph.simulation import Simulation
+from tests.consistency.test_floating_box import CASE as FLOATING_BOX_CASE
 
 ROOT = Path(__file__).resolve().parents[2]
 CASES = ROOT / "cases"
 DATA = ROOT / "tests" / "data" / "bit_identical.npz"
 
-FLOATING_BOX = """
-[case]
-t_end = 1.0
-dx = 0.012
-gravity = [0.0, -9.81]
-output_every = 10.0
-[fluid]
-material = { rho0 = 1000.0, nu = 1.0e-6 }
-blocks = [{ origin = [0.0, 0.0], size = [0.6, 0.24] }]
-pressure_gradient = "interface_conservative"
-dt_max = 1.0e-3
-[fluid.shifting]
-model = "fickian"
-[fluid.collision]
-distance = 0.5
-[walls]
-layers = 3
-tanks = [{ origin = [0.0, 0.0], size = [0.6, 0.4] }]
-[solid.box]
-material = { model = "rigid", rho0 = 500.0 }
-blocks = [{ origin = [0.24, 0.18], size = [0.12, 0.12] }]
-[coupling]
-structures = ["box"]
-"""
+# the floating rigid box of tests/consistency/test_floating_box.py, at dx 0.012 (SCENES)
+FLOATING_BOX = FLOATING_BOX_CASE
 
 #: scene -> (case file or inline TOML, overrides, steps)
 SCENES = {
     "dam_break": ("dam_break.toml", ["case.dx=0.05"], 30),
     "elastic_gate": ("dam_break_elastic_gate.toml", ["case.dx=0.0025"], 20),
-    "floating_box": (FLOATING_BOX, [], 25),
+    "floating_box": (FLOATING_BOX, ["case.dx=0.012"], 25),
     "mu_i_layer": ("bagnold.toml", ["case.dx=0.001"], 30),
     "granular_collapse": ("granular_collapse.toml", ["case.dx=0.02"], 20),
     "soil_slope": ("slope_1_granular.toml", ["case.dx=0.05"], 30),
@@ -116,5 +95,5 @@ def regenerate():
 
 if __name__ == "__main__":
     if "--regen" not in sys.argv:
-        sys.exit("usage: python tests/regression/test_bit_identical.py --regen")
+        sys.exit("usage: python -m tests.regression.test_bit_identical --regen")
     regenerate()

@@ -29,7 +29,8 @@ FAMILIES = {
                       ["case.dx=0.02", "case.t_end=0.08", "case.output_every=0.02"]),
     "drucker_prager_soil": ("column_collapse.toml",
                             ["case.dx=0.01", "case.t_end=0.006", "case.output_every=0.002"]),
-    "floating_body": ("floating_box", ["case.t_end=0.02", "case.output_every=0.006"]),
+    "floating_body": ("floating_box", ["case.dx=0.012", "case.t_end=0.02",
+                                       "case.output_every=0.006"]),
 }
 
 
