@@ -119,7 +119,7 @@ class Simulation:
                 coupling.before_fluid()
             self._timed("neighbours", fluid.update_neighbors)
             self._timed("free_surface", fluid.detect_free_surface)
-            if fluid.motion.shifting is not None:
+            if fluid.shifting_enabled:
                 self._timed("shift", fluid.shift, dt)
             self._timed("predict", fluid.predict, dt)
             stats = self._timed("ppe", fluid.solve_pressure, dt)

@@ -175,6 +175,11 @@ class IncompressibleFluid(FluidParticles):
             scan=self.cfg.surface_scan, isolated=self.cfg.surface_isolated_rows)
         self.rows.new_surface()  # waterline_rows: found anew for this alpha
 
+    @property
+    def shifting_enabled(self):
+        """Whether the scene declares particle shifting (``[fluid.shifting]``)."""
+        return self.motion.shifting is not None
+
     def shift(self, dt):
         """Particle shifting [F 22-33] with the Taylor correction of u and p [F 33]."""
         self.motion.shift(dt)
