@@ -72,9 +72,13 @@ def test_rigid_step_under_a_couple_rotates_without_deforming():
     np.testing.assert_allclose(xc1, xc, atol=1e-15)
     d1 = np.linalg.norm(b.body["x"][:, None] - b.body["x"][None], axis=2)
     np.testing.assert_allclose(d1, d0, atol=1e-14)
-    # the rotation by dt omega about the centre
-    angle = math.atan2(r1[0, 1], r1[0, 0]) - math.atan2(r[0, 1], r[0, 0])
-    assert math.isclose(angle, dt * omega, rel_tol=1e-9)
+    # the rotation by dt omega about the centre: the body's rotation angle, from every
+    # particle at once (sum m r x r1 against sum m r . r1). The angle is 1e-6 rad; read from
+    # one particle as a difference of two atan2 it carried the positions' rounding, about
+    # 1e-9 of it, and passed or failed with the summation order
+    cross = float(m @ (r[:, 0] * r1[:, 1] - r[:, 1] * r1[:, 0]))
+    dot = float(m @ np.einsum("ij,ij->i", r, r1))
+    assert math.isclose(math.atan2(cross, dot), dt * omega, rel_tol=1e-9)
     assert b.stable_dt() == math.inf and b.strain_energy() == 0.0
 
 
