@@ -235,7 +235,7 @@ def cmd_validate(args):
 
 
 def cmd_fos(args):
-    from fsi_sph.soil.strength_reduction import SlopeInputError, fos_command
+    from fsi_sph.strength_reduction import SlopeInputError, fos_command
 
     _set_threads(args.threads)
     try:

@@ -1,6 +1,6 @@
 """Factor of safety of the slopes of [S 5-5]: SPH shear strength reduction vs Bishop's
 simplified method with a critical-circle search, both from the package
-(:mod:`fsi_sph.soil.strength_reduction`, :mod:`fsi_sph.soil.limit_equilibrium`: the code of
+(:mod:`fsi_sph.strength_reduction`, :mod:`fsi_sph.soil.limit_equilibrium`: the code of
 ``fsi-sph fos CASE``). Geometry, damping, durations and the failure test (does the slope come
 to rest?) come from the case and the method's defaults, the same for every slope; the
 scripts ``slope_N.py`` give only the case, the body and the spacings.
@@ -13,7 +13,7 @@ import logging
 import time
 
 from fsi_sph.config import load_config
-from fsi_sph.soil.strength_reduction import (
+from fsi_sph.strength_reduction import (
     curve_plot,
     limit_equilibrium,
     slip_surface_plot,

@@ -13,7 +13,7 @@ import numpy as np
 
 from fsi_sph.config import load_config
 from fsi_sph.simulation import Simulation
-from fsi_sph.soil.strength_reduction import advance, profile_plot  # noqa: F401 (re-exported)
+from fsi_sph.strength_reduction import advance, profile_plot  # noqa: F401 (re-exported)
 
 log = logging.getLogger(__name__)
 

@@ -19,7 +19,7 @@ Also the infinite slope (the limit of skin-deep slips, e.g. a cohesionless slope
 ``z``, ``tan(phi)/tan(beta)`` for ``c = 0``.
 
 ``fsi-sph fos CASE --method bishop`` and the strength reduction
-(:mod:`fsi_sph.soil.strength_reduction`) use it; the slope validations import it.
+(:mod:`fsi_sph.strength_reduction`) use it; the slope validations import it.
 """
 
 from __future__ import annotations

@@ -9,7 +9,7 @@ import pytest
 
 from fsi_sph.__main__ import main
 from fsi_sph.config import load_config
-from fsi_sph.soil.strength_reduction import (
+from fsi_sph.strength_reduction import (
     COLLAPSE,
     SlopeInputError,
     slope_geometry,
