@@ -99,15 +99,21 @@ def onset_sensitivity(x0, fields, dx, thresholds=SENS_THRESHOLDS):
             for a, f in sorted(fields.items()) for e in thresholds}
 
 
+def _fit(pts):
+    """Centre and unit direction of the orthogonal least-squares line through ``pts``
+    (n x 2): the direction of the points' largest spread."""
+    pts = np.asarray(pts, dtype=float)
+    c = pts.mean(axis=0)
+    _, _, vt = np.linalg.svd(pts - c, full_matrices=False)
+    return c, vt[0]
+
+
 def line_angle_deg(pts):
     """Angle (deg, 0-90) from the horizontal of the orthogonal least-squares line through
-    ``pts`` (n x 2): the direction of the points' largest spread."""
-    pts = np.asarray(pts, dtype=float)
+    ``pts`` (:func:`_fit`)."""
     if len(pts) < 3:
         return float("nan")
-    d = pts - pts.mean(axis=0)
-    _, _, vt = np.linalg.svd(d, full_matrices=False)
-    ux, uy = vt[0]
+    ux, uy = _fit(pts)[1]
     return math.degrees(math.atan2(abs(uy), abs(ux)))
 
 
@@ -168,9 +174,7 @@ def _line(pts):
     """The fitted line through ``pts`` drawn across the column's height (orthogonal fit)."""
     if len(pts) < 3:
         return None
-    c = pts.mean(axis=0)
-    _, _, vt = np.linalg.svd(pts - c, full_matrices=False)
-    ux, uy = vt[0]
+    c, (ux, uy) = _fit(pts)
     if abs(uy) < 1e-12:
         return None
     s = (np.array([0.0, HEIGHT]) - c[1]) / uy
