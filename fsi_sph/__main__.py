@@ -116,6 +116,8 @@ def cmd_run(args):
     else:
         out = Path(args.out) if args.out else Path("runs") / cfg.case.name
     log.info("case %s: %s", case, ", ".join(cfg.modules()))
+    for pick in cfg.numerics_picked():
+        log.info("picked %s", pick)
     try:
         sim = Simulation(cfg)
     except ConfigError as e:  # raised while building the scene: name the file too
@@ -144,6 +146,10 @@ def cmd_info(args):
     cfg = load_config(args.case, args.overrides)
     print(f"case file: {args.case}")
     print("physics modules enabled: " + ", ".join(cfg.modules()))
+    picks = cfg.numerics_picked()
+    print("numerics picked from the declared physics" + (":" if picks else ": none"))
+    for pick in picks:
+        print(f"  {pick}")
     print("resolved config:")
     print(json.dumps(cfg.model_dump(mode="json"), indent=2))
     return 0

@@ -16,6 +16,7 @@ from pathlib import Path
 
 from fsi_sph.config import Config
 from fsi_sph.errors import SimulationError
+from fsi_sph.frame import frame_of, peak_gravity
 from fsi_sph.guard import Guard
 from fsi_sph.probes import make_probe
 from fsi_sph.soil.drucker_prager import DruckerPragerBody
@@ -42,6 +43,9 @@ class Simulation:
 
             self.fluid = IncompressibleFluid(cfg.fluid, cfg.walls, c.dx, cfg.sph, c.gravity,
                                              coupled)
+            if self.fluid.walls is not None:  # rigid bodies stop at the fixed walls
+                for body in coupled:
+                    body.touch_walls(self.fluid.walls.body["x"], c.dx)
         if cfg.coupling is not None:
             from fsi_sph.coupling.fsi import FsiCoupling
 
@@ -56,7 +60,8 @@ class Simulation:
         fixed = []
         if self.fluid is not None and self.fluid.walls is not None:
             fixed.append(self.fluid.walls.body["x"])
-        self.guard = Guard(cfg.guard, self.bodies(), c.gravity, fixed)
+        self.frame = frame_of(c)  # a shaken scene's frame (its body force), or None
+        self.guard = Guard(cfg.guard, self.bodies(), peak_gravity(self.frame, c.gravity), fixed)
         self.t = 0.0
         self.n_steps = 0
         self.particle_steps = 0
@@ -107,6 +112,10 @@ class Simulation:
             dt = min(dt_max, *limits)
         if to_end and dt < dt_max < 2.0 * dt:
             dt = 0.5 * dt_max
+        if self.frame is not None:  # the frame's body force at the middle of the step
+            g = self.frame.body_force(self.t + 0.5 * dt)
+            for body in self.bodies().values():
+                body.set_gravity(g)
         if not all(d > 0.0 for d in limits):  # NaN or collapsed: let the guard name the culprit
             self.guard.check(self.t, self.n_steps, self.bodies())
             raise SimulationError(f"time step {dt:.3g} s at t = {self.t:.6g} s, step "

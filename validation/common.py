@@ -84,13 +84,15 @@ def markdown_table(result: dict) -> str:
     recs = result["records"]
     marks = result.get("marks") or {}
     ekeys = list(dict.fromkeys(k for r in recs for k in r["errors"]))
+    status = any("status" in r.get("values", {}) for r in recs)  # pass/fail records
     head = ["label", "dx (m)", "particles", "steps", "wall time (s)", "particle-steps/s",
-            *[f"{k}" for k in ekeys]]
+            *[f"{k}" for k in ekeys], *(["status"] if status else [])]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in recs:
         row = [r["label"], f"{r['dx']:g}", str(r["n_particles"]), str(r["steps"]),
                f"{r['wall_time_s']:.1f}", f"{r['particle_steps_per_s']:.3g}",
-               *[f"{r['errors'][k]:+.3f}" if k in r["errors"] else "" for k in ekeys]]
+               *[f"{r['errors'][k]:+.3f}" if k in r["errors"] else "" for k in ekeys],
+               *([_status(r["values"])] if status else [])]
         lines.append("| " + " | ".join(row) + " |")
     for label, vals in marks.items():
         if not any(k in vals for k in ekeys):
@@ -99,6 +101,18 @@ def markdown_table(result: dict) -> str:
                *[f"*{vals[k]:+.3f}*" if k in vals else "" for k in ekeys]]
         lines.append("| " + " | ".join(row) + " |")
     return "\n".join(lines) + "\n"
+
+
+def _status(values: dict) -> str:
+    """``pass`` / ``FAIL (why)`` of a pass/fail record (the scene zoo)."""
+    if values.get("passed"):
+        return "pass"
+    why = values.get("status", "")
+    if why == "completed" and values.get("lost"):
+        why = f"{values['lost']} particles lost"
+    elif why == "completed":
+        why = "energy bound"
+    return f"FAIL ({why})"
 
 
 def write_outputs(result: dict, out_dir, error_keys=None, title=None, marks=None) -> Path:

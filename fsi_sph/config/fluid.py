@@ -8,7 +8,7 @@ from typing import Annotated, Literal
 from pydantic import Field, model_validator
 
 from fsi_sph.config.base import NonNegative, Positive, StrictModel, Vec2
-from fsi_sph.config.scene import Shape
+from fsi_sph.config.scene import BlockShape, Shape
 
 
 class MuIParameters(StrictModel):
@@ -155,8 +155,9 @@ class FluidSection(StrictModel):
     """Incompressible SPH fluid (projection method) [F 15-21]."""
 
     material: FluidMaterial
-    blocks: Annotated[list[Shape], Field(min_length=1)] = Field(
-        description="shapes filled with fluid particles")
+    blocks: Annotated[list[BlockShape], Field(min_length=1)] = Field(
+        description="rectangles {origin, size} or polygons {shape = \"polygon\", vertices} "
+        "filled with fluid particles")
     ppe: PPESection = PPESection()
     shifting: ShiftingSection | None = Field(None, description="absent: no shifting")
     smagorinsky: SmagorinskySection | None = Field(None, description="absent: no eddy viscosity")
@@ -339,7 +340,9 @@ class WallsSection(StrictModel):
     layers: Annotated[int, Field(ge=1, le=8)] = Field(
         3, description="wall particle layers of a tank; need layers * dx >= 2 h")
     tanks: list[Shape] = Field([], description="open-top tanks, inner rectangle (m)")
-    boxes: list[Shape] = Field([], description="rectangles filled with wall particles (m)")
+    boxes: list[BlockShape] = Field([], description="rectangles {origin, size} or polygons "
+                                    "{shape = \"polygon\", vertices} filled with wall "
+                                    "particles (m)")
 
     @model_validator(mode="after")
     def _not_empty(self):

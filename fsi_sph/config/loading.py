@@ -13,6 +13,7 @@ from typing import Any
 from pydantic import BaseModel, ValidationError
 
 from fsi_sph.config.model import Config
+from fsi_sph.config.numerics import pick_numerics
 from fsi_sph.errors import ConfigError
 
 
@@ -206,12 +207,22 @@ def load_config(path: str | Path | None, overrides: list[str] | None = None,
         v = case.get(k) if isinstance(case, dict) else None
         if isinstance(v, float) and not math.isfinite(v):
             raise ConfigError(f"{label}: case.{k}: must be a finite number (got {v})")
+    return _validate(data, label)
+
+
+def _validate(data: dict, label: str) -> Config:
+    """The typed config of the raw table, with the physics-dependent numerics filled in
+    (:mod:`fsi_sph.config.numerics`); what was filled is kept on the config
+    (:meth:`Config.numerics_picked`)."""
+    data, picks = pick_numerics(data)
     try:
-        return Config.model_validate_json(json.dumps(data), strict=True)
+        cfg = Config.model_validate_json(json.dumps(data), strict=True)
     except ValidationError as e:
         raise ConfigError(_format_errors(e, label, data)) from None
     except ValueError as e:  # json cannot encode NaN/inf comparisons etc.
         raise ConfigError(f"{label}: {e}") from None
+    cfg.remember_picks(picks)
+    return cfg
 
 
 def load_config_from_run(run_file, overrides: list[str] | None = None) -> Config:
@@ -226,7 +237,4 @@ def load_config_from_run(run_file, overrides: list[str] | None = None) -> Config
         raise ConfigError(f"{run_file}: cannot read the config stored in the run file: {e}") \
             from None
     data = apply_overrides(data, overrides or [], label)
-    try:
-        return Config.model_validate_json(json.dumps(data), strict=True)
-    except ValidationError as e:
-        raise ConfigError(_format_errors(e, label, data)) from None
+    return _validate(data, label)

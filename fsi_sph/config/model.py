@@ -6,7 +6,7 @@ from __future__ import annotations
 import json
 from typing import Annotated, Literal
 
-from pydantic import Field, model_validator
+from pydantic import Field, PrivateAttr, model_validator
 
 from fsi_sph.config.base import Name, StrictModel, Vec2
 from fsi_sph.config.fluid import FluidSection, WallsSection
@@ -71,6 +71,16 @@ class Config(StrictModel):
     coupling: CouplingSection | None = Field(None, description="absent: bodies ignore each "
                                              "other")
     probes: list[Probe] = []
+    _numerics_picked: tuple = PrivateAttr(default=())
+
+    def remember_picks(self, picks) -> None:
+        """Keep what the loader picked (:func:`fsi_sph.config.numerics.pick_numerics`)."""
+        self._numerics_picked = tuple(picks)
+
+    def numerics_picked(self) -> tuple:
+        """The numerical choices the loader filled in from the declared physics
+        (:class:`fsi_sph.config.numerics.Pick`: key, value, reason)."""
+        return self._numerics_picked
 
     @model_validator(mode="after")
     def _cross_references(self):
@@ -92,6 +102,10 @@ class Config(StrictModel):
                 raise ValueError(f"fluid.periodic_x: period {period:g} m is shorter than two "
                                  f"kernel supports plus dx ({2.0 * support + self.case.dx:g} m)"
                                  ": a particle would meet two images of one neighbour")
+        if self.case.shaking is not None and self.fluid is not None \
+                and self.fluid.periodic_x is not None:
+            raise ValueError("case.shaking with fluid.periodic_x is not supported (the periodic "
+                             "images' wall body force is set once, at the start)")
         if self.walls is not None and self.fluid is None:
             raise ValueError("[walls] without [fluid]: walls only bound the fluid")
         for name, sec in self.solid.items():

@@ -3,9 +3,10 @@ fill bodies with particles."""
 
 from __future__ import annotations
 
+import math
 from typing import Annotated, Literal
 
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from fsi_sph.config.base import NonNegative, Positive, StrictModel, Vec2
 
@@ -27,6 +28,24 @@ class Polygon(StrictModel):
 
 
 SoilShape = Annotated[Shape | Polygon, Field(union_mode="left_to_right")]
+#: a rectangle or a polygon: the shapes that fill a body (fluid, wall, solid or soil)
+BlockShape = SoilShape
+
+
+class Shaking(StrictModel):
+    """The scene's frame (tank, walls and everything in it) moved as
+    ``X(t) = amplitude sin(2 pi frequency t) direction``; the bodies are computed in that
+    frame, where the body force is ``g - X''(t)`` (fsi_sph/frame.py)."""
+
+    amplitude: Positive = Field(description="displacement amplitude of the frame (m)")
+    frequency: Positive = Field(description="frequency (Hz)")
+    direction: Vec2 = Field((1.0, 0.0), description="direction of the motion (normalised)")
+
+    @model_validator(mode="after")
+    def _direction(self):
+        if not math.hypot(*self.direction) > 0.0:
+            raise ValueError(f"direction = {list(self.direction)}: must not be zero")
+        return self
 
 
 class CaseSection(StrictModel):
@@ -38,6 +57,7 @@ class CaseSection(StrictModel):
     output_every: Positive = Field(0.01, description="snapshot interval (s)")
     probe_every: NonNegative = Field(0.0, description="probe sampling interval (s); 0 = every step")
     gravity: Vec2 = Field((0.0, -9.81), description="body force per unit mass (m/s^2)")
+    shaking: Shaking | None = Field(None, description="absent: the frame is at rest")
 
 
 class SphSection(StrictModel):

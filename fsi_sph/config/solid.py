@@ -8,7 +8,7 @@ from typing import Annotated, Literal
 from pydantic import Field, model_validator
 
 from fsi_sph.config.base import NonNegative, Positive, StrictModel, Vec2
-from fsi_sph.config.scene import Shape
+from fsi_sph.config.scene import BlockShape
 
 
 class Material(StrictModel):
@@ -84,9 +84,9 @@ class SolidBody(StrictModel):
     """One total-Lagrangian SPH elastic body [F 34-45]."""
 
     material: Material
-    blocks: Annotated[list[Shape], Field(min_length=1)] = Field(
+    blocks: Annotated[list[BlockShape], Field(min_length=1)] = Field(
         description="shapes filled with particles")
-    clamp: list[Shape] = Field([], description="particles inside these shapes are held fixed")
+    clamp: list[BlockShape] = Field([], description="particles inside these shapes are held fixed")
     initial_velocity: InitialVelocity | None = None
     artificial_viscosity: ArtificialViscosity = ArtificialViscosity()
     hourglass: Hourglass = Hourglass()

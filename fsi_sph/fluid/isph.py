@@ -142,6 +142,13 @@ class IncompressibleFluid(FluidParticles):
         return self.pressure.last_stats
 
     # ------------------------------------------------------------------ step verbs
+    def set_gravity(self, g):
+        """The body force per unit mass from now on (a shaken frame's, fsi_sph/frame.py): the
+        fluid's, the walls' (at rest in the frame) and the walls' pressure floor ``rho g``."""
+        self.gravity[:] = g
+        self.g_b[:self.n_walls] = g
+        self.rows.floor_rg[self.rows.wall_rows] = self.rho * self.gravity
+
     def stable_dt(self):
         """[F 48]: ``min(cfl h / |u|max, 0.125 h^2 / nu_max, 0.25 sqrt(h / |a|max), dt_max)``,
         ``|a|max`` at least ``|g|``."""

@@ -270,6 +270,10 @@ class DruckerPragerBody:
             K.enforce_walls(b["x"], b["v"], side, pos, fric, mu, 1e-3 * self.dx)
 
     # ------------------------------------------------------------------ diagnostics
+    def set_gravity(self, g):
+        """The body force per unit mass from now on (a shaken frame's, fsi_sph/frame.py)."""
+        self.gravity[:] = g
+
     def kinetic_energy(self):
         b = self.body
         return 0.5 * float(np.sum(b["m"] * np.einsum("ij,ij->i", b["v"], b["v"])))

@@ -48,6 +48,7 @@ class ElasticBody:
         self.cfg = cfg
         mat = cfg.material
         self.rigid = mat.model == "rigid"  # moved as a rigid body (_rigid_substep)
+        self.walls = None  # a rigid body's contact with the fixed walls (touch_walls)
         self.rho0 = mat.rho0
         self.plane = mat.plane
         if self.rigid:  # no stress: F stays I, P stays 0
@@ -111,6 +112,7 @@ class ElasticBody:
         self.L = np.zeros((b.n, 2, 2))
         K.reference_gradients(b["x0"], b["vol"], self.nbr_start, self.nbr_j, self.h,
                               self.kernel, gw, self.w, self.L)
+        self._refuse_a_line_of_particles(gw)
         self.gi = np.zeros((npairs, 2))
         self.gj = np.zeros((npairs, 2))
         K.corrected_gradients(self.nbr_start, self.nbr_j, gw, self.L, self.gi, self.gj)
@@ -122,6 +124,24 @@ class ElasticBody:
             self.G = np.zeros((b.n, 2))
             np.add.at(self.G, rows, b["vol"][self.nbr_j][:, None] * self.gi)
             self.H = np.zeros((b.n, 2, 2))
+
+    def _refuse_a_line_of_particles(self, gw):
+        """A body one particle thick somewhere has no neighbour across it: its moment matrix
+        ``M_i = sum_j V_j (X_j - X_i) (x) grad W_ij`` [F 13-14] is singular there, and so is the
+        deformation gradient [F 34] (its determinant is 0: the stress divides by it)."""
+        b = self.body
+        rows = np.repeat(np.arange(b.n), np.diff(self.nbr_start))
+        dx0 = b["x0"][self.nbr_j] - b["x0"][rows]
+        m = np.zeros((b.n, 2, 2))
+        np.add.at(m, rows, b["vol"][self.nbr_j][:, None, None] * dx0[:, :, None] * gw[:, None, :])
+        det = np.linalg.det(m) if b.n else np.ones(0)
+        if b.n and not self.rigid and not np.all(np.abs(det) > 1e-6):
+            i = int(np.argmin(np.abs(det)))
+            dx = math.sqrt(float(b["vol"][i]))
+            raise ConfigError(
+                f"solid.{self.name}: at dx = {dx:g} m the body is one particle thick (first at "
+                f"x = [{b['x0'][i, 0]:.4g}, {b['x0'][i, 1]:.4g}]); a TLSPH body needs at least "
+                f"two particles across: make it thicker or lower case.dx to half its thickness")
 
     # ------------------------------------------------------------------ stepping
     def stable_dt(self):
@@ -187,13 +207,26 @@ class ElasticBody:
         vc = m @ v / mass + dt * (f.sum(axis=0) / mass + self.gravity)
         omega = float(m @ (r[:, 0] * v[:, 1] - r[:, 1] * v[:, 0])) / inertia
         omega += dt * float(np.sum(r[:, 0] * f[:, 1] - r[:, 1] * f[:, 0])) / inertia
+        if self.walls is not None:  # no approach into a fixed wall (fsi_sph/solid/contact.py)
+            vc, omega = self.walls.resolve(x, xc, vc, omega, mass, inertia)
         c, s = math.cos(dt * omega), math.sin(dt * omega)
         r = np.column_stack([c * r[:, 0] - s * r[:, 1], s * r[:, 0] + c * r[:, 1]])
         x[:] = xc + dt * vc + r
         v[:] = vc + omega * np.column_stack([-r[:, 1], r[:, 0]])
         b["a"][:] = 0.0
 
+    def touch_walls(self, wall_x, spacing):
+        """Fixed wall particles this body, if rigid, may not move into."""
+        if self.rigid and len(wall_x):
+            from fsi_sph.solid.contact import WallContact
+
+            self.walls = WallContact(wall_x, spacing)
+
     # ------------------------------------------------------------------ diagnostics
+    def set_gravity(self, g):
+        """The body force per unit mass from now on (a shaken frame's, fsi_sph/frame.py)."""
+        self.gravity[:] = g
+
     def kinetic_energy(self):
         b = self.body
         return 0.5 * float(np.sum(b["m"] * np.einsum("ij,ij->i", b["v"], b["v"])))

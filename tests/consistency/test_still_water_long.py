@@ -62,13 +62,17 @@ def test_still_water_one_step_map_is_not_amplifying():
     with the plain Morris Laplacian and the trapezoidal move [F 19] it is above 1.05 (1.08
     measured on a 10 x 10 tank), so this test tells the two apart."""
     assert spectral_radius([]) < 1.002
-    assert spectral_radius(["fluid.laplacian=morris", "fluid.position_update=trapezoid"]) > 1.02
+    # (without shifting, as measured: the default shifting damps the amplification)
+    assert spectral_radius(["fluid.laplacian=morris", "fluid.position_update=trapezoid",
+                            "fluid.shifting=false"]) > 1.02
 
 
 def test_small_tank_stays_at_rest_for_10_s():
     """10 x 10 particles at the force limit's step for 10 s (about 800 steps): before the fix
     the fastest particle reached 1e-4 m/s at 2.8 s and the run blew up at 4.5 s."""
-    sim = small_tank(0.2, ["case.t_end=10.0"])
+    # the solve at 1e-8 (the tank's setting when this was measured): at the default 1e-6 the
+    # speed holds at the solver's noise, 2.5e-6 m/s, with or without shifting (no growth)
+    sim = small_tank(0.2, ["case.t_end=10.0", "fluid.ppe.rtol=1e-8"])
     top = 0.0
     while sim.t < 10.0 - 1e-9:
         sim.step(dt_max=10.0 - sim.t, to_end=True)

@@ -88,7 +88,7 @@ def test_fluid_config_errors_name_the_key(text, message):
 
 def test_modules_listed():
     cfg = load_config(None, text=FLUID + "[fluid.shifting]\n[fluid.smagorinsky]\n")
-    assert cfg.modules() == ["isph_fluid", "walls", "shifting:fickian", "smagorinsky"]
+    assert cfg.modules() == ["isph_fluid", "walls", "shifting:fickian_fixed", "smagorinsky"]
 
 
 def test_smagorinsky_and_shifting_run():
