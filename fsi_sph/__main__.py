@@ -10,6 +10,7 @@ import argparse
 import importlib.util
 import json
 import logging
+import math
 import os
 import sys
 from pathlib import Path
@@ -39,8 +40,13 @@ def _parser():
                    "is given; without CASE the run's stored config is used)")
     r.add_argument("--threads", type=int, help="numba threads (default: all cores)")
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
+    r.add_argument("--force", action="store_true",
+                   help="run a scene even if its memory estimate exceeds the machine's memory")
+    r.add_argument("--overwrite", action="store_true",
+                   help="replace the run already in the output folder")
 
-    i = sub.add_parser("info", help="print the resolved config and the enabled physics")
+    i = sub.add_parser("info", help="what the scene will be (particles, memory, time step, "
+                       "steps), the enabled physics and the resolved config")
     i.add_argument("case")
     i.add_argument("--set", dest="overrides", action="append", default=[], metavar="K=V")
 
@@ -90,7 +96,8 @@ def _set_threads(n):
 
 def cmd_run(args):
     from fsi_sph.config import load_config, load_config_from_run
-    from fsi_sph.output import read_restart
+    from fsi_sph.output import read_restart, refuse_overwrite
+    from fsi_sph.scene_checks import check_scene
     from fsi_sph.simulation import Simulation
 
     if args.max_steps is not None and args.max_steps < 0:
@@ -107,14 +114,19 @@ def cmd_run(args):
     if args.case or resume is None:
         case = Path(args.case) if args.case else DEFAULT_CASE
         cfg = load_config(case, args.overrides)
+        label = str(case)
     else:
         case = resume
         cfg = load_config_from_run(resume, args.overrides)
+        label = f"{resume} (stored config)"
+    check_scene(cfg, label, force=args.force)
     _set_threads(args.threads)
     if resume is not None:
         out = Path(args.out) if args.out else None
     else:
         out = Path(args.out) if args.out else Path("runs") / cfg.case.name
+    if out is not None and not args.overwrite:
+        refuse_overwrite(out / "run.h5")
     log.info("case %s: %s", case, ", ".join(cfg.modules()))
     try:
         sim = Simulation(cfg)
@@ -140,13 +152,38 @@ def cmd_run(args):
 
 def cmd_info(args):
     from fsi_sph.config import load_config
+    from fsi_sph.scene_checks import check_scene
 
     cfg = load_config(args.case, args.overrides)
+    est = check_scene(cfg, args.case)
     print(f"case file: {args.case}")
     print("physics modules enabled: " + ", ".join(cfg.modules()))
+    _print_scene(cfg, est)
     print("resolved config:")
     print(json.dumps(cfg.model_dump(mode="json"), indent=2))
     return 0
+
+
+def _print_scene(cfg, est):
+    """Particles per body, memory, first stable step and steps to t_end of the built scene."""
+    from fsi_sph.scene_checks import machine_memory, size_text
+    from fsi_sph.simulation import Simulation
+
+    sim = Simulation(cfg)
+    counts = {name: o.body.n for name, o in sim.bodies().items()}
+    if sim.fluid is not None and sim.fluid.walls is not None:
+        counts["walls"] = sim.fluid.walls.body.n
+    print("particles: " + ", ".join(f"{k} {n}" for k, n in counts.items())
+          + f" (total {sum(counts.values())})")
+    print(f"memory estimate: {size_text(est.memory)} (this machine: "
+          f"{size_text(machine_memory())})")
+    dt = sim.stable_dt()
+    subs = {n: max(1, math.ceil(dt / b.stable_dt() - 1e-12)) for n, b in sim.structures.items()}
+    print(f"first stable time step: {dt:.3g} s"
+          + (" (sub-steps: " + ", ".join(f"{n} {k}" for n, k in subs.items()) + ")"
+             if subs and sim.fluid is not None else ""))
+    print(f"steps to t_end = {cfg.case.t_end:g} s: about {math.ceil(cfg.case.t_end / dt)} "
+          "(an estimate: a faster flow takes shorter steps)")
 
 
 def cmd_plot(args):
@@ -265,6 +302,10 @@ def main(argv=None):
     except (ConfigError, UsageError) as e:
         print(f"fsi-sph: error: {e}", file=sys.stderr)
         return 2
+    except MemoryError:
+        print("fsi-sph: out of memory: the scene is too large for this machine (see `fsi-sph "
+              "info CASE` for its memory estimate; raise case.dx)", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         print("fsi-sph: interrupted; the output file keeps every snapshot written so far",
               file=sys.stderr)

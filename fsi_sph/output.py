@@ -35,6 +35,8 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from fsi_sph.errors import UsageError
+
 log = logging.getLogger(__name__)
 
 
@@ -248,3 +250,19 @@ def read_probe(path, name):
         cols = json.loads(ds.attrs["columns"])
         data = ds[()]
     return data[:, 0], {c: data[:, k] for k, c in enumerate(cols) if k > 0}
+
+
+def refuse_overwrite(path):
+    """Raise :class:`UsageError` when ``path`` already holds a run (its status and time in
+    the message), so that a second run does not replace what a user computed."""
+    path = Path(path)
+    if not path.exists():
+        return
+    try:
+        with h5py.File(path, "r") as f:
+            status = f.attrs.get("status", "unknown")
+            n = len(f["snapshots"]) if "snapshots" in f else 0
+    except OSError:
+        status, n = "not readable", 0
+    raise UsageError(f"{path} already holds a run ({status}, {n} snapshots); --overwrite "
+                     f"replaces it, --out DIR writes elsewhere")

@@ -90,6 +90,19 @@ class Simulation:
         return out
 
     # ------------------------------------------------------------------ the time step
+    def _limits(self):
+        """Every body's stability limit and the macro step's: the fluid's when there is a
+        fluid (the structures are sub-cycled inside its step), else the stiffest body's."""
+        limits = [b.stable_dt() for b in self.structures.values()]
+        if self.fluid is not None:
+            limits.append(self.fluid.stable_dt())
+            return limits, limits[-1]
+        return limits, min(limits)
+
+    def stable_dt(self) -> float:
+        """The stable macro step in the current state."""
+        return self._limits()[1]
+
     def step(self, dt_max=math.inf, to_end=False):
         """Advance every body by one macro step; returns (dt, {body: n_sub}).
 
@@ -99,12 +112,8 @@ class Simulation:
         layer's final pressure field at 2.4 times the hydrostatic one)."""
         # 1. time step: the fluid's when there is a fluid; else the stiffest structure's
         fluid = self.fluid
-        limits = [b.stable_dt() for b in self.structures.values()]
-        if fluid is not None:  # the structures are sub-cycled inside the fluid step
-            limits.append(fluid.stable_dt())
-            dt = min(dt_max, limits[-1])
-        else:
-            dt = min(dt_max, *limits)
+        limits, dt = self._limits()
+        dt = min(dt_max, dt)
         if to_end and dt < dt_max < 2.0 * dt:
             dt = 0.5 * dt_max
         if not all(d > 0.0 for d in limits):  # NaN or collapsed: let the guard name the culprit
