@@ -18,6 +18,7 @@ from fsi_sph.config import Config
 from fsi_sph.errors import SimulationError
 from fsi_sph.guard import Guard
 from fsi_sph.probes import make_probe
+from fsi_sph.progress import Progress
 from fsi_sph.soil.drucker_prager import DruckerPragerBody
 from fsi_sph.solid.tlsph import ElasticBody
 from fsi_sph.step_table import StepTable
@@ -249,7 +250,7 @@ class Simulation:
             step_rows = []
             self.timings["output"] += time.perf_counter() - t0
 
-        bar = _progress(progress, c.t_end, self.t)
+        bar = Progress(c.t_end, self.t) if progress else None
         loop_t0 = time.perf_counter()
         status = "completed"
         try:
@@ -267,7 +268,7 @@ class Simulation:
                 dt, n_sub = self.step(dt_max=c.t_end - self.t, to_end=True)
                 step_rows.append(self.step_table.row(self.t, dt, n_sub))
                 if bar is not None:
-                    bar.update(dt)
+                    bar.update(self.t)
                 t0 = time.perf_counter()
                 snapshot_due = self.t >= self.next_out - eps
                 if snapshot_due or self.n_steps % self.cfg.guard.check_every == 0:
@@ -350,16 +351,6 @@ def _timing_attrs(sim):
     out["steps"] = sim.n_steps
     out["particle_steps"] = sim.particle_steps
     return out
-
-
-def _progress(enabled, total, start=0.0):
-    if not enabled:
-        return None
-    from tqdm import tqdm
-
-    # shown only when the run lasts more than 2 s; off when stderr is not a terminal
-    return tqdm(total=total, initial=start, unit="s(sim)", delay=2.0, disable=None,
-                bar_format="{l_bar}{bar}| {n:.4g}/{total:.4g} s [{elapsed}<{remaining}]")
 
 
 def run(case, out_dir=None, overrides=None, max_steps=None, progress=True):
