@@ -52,8 +52,13 @@ def _parser():
 
     pl = sub.add_parser("plot", help="PNG snapshots and probe time series of a run")
     pl.add_argument("run_file", metavar="RUN.h5")
-    pl.add_argument("--field", default="von_mises",
-                    help="field that colours the particles (default: von_mises)")
+    pl.add_argument("--field", help="colour every body that has this field by it (default: "
+                    "each body by its natural field: fluid p, elastic von_mises, soil eps_p)")
+    pl.add_argument("--movie", action="store_true",
+                    help="write movie.mp4 of every snapshot (movie.gif without an encoder)")
+    pl.add_argument("--fps", type=int, default=10, help="movie frames per second (default 10)")
+    pl.add_argument("--data", default=str(REPO.parent / "shared" / "validation_data"),
+                    help="folder of the reference data the case's probes name")
     pl.add_argument("--out", help="folder for the PNGs (default: beside RUN.h5)")
     pl.add_argument("--max-snapshots", type=int, default=12,
                     help="at most this many snapshot images, evenly spaced (default 12)")
@@ -193,7 +198,15 @@ def cmd_plot(args):
     if not path.is_file():
         raise UsageError(f"{path}: no such run file")
     out = Path(args.out) if args.out else path.parent / "plots"
-    files = plot_run(path, out, field=args.field, max_snapshots=args.max_snapshots)
+    if args.movie:
+        from fsi_sph.movie import write_movie
+
+        if args.fps < 1:
+            raise UsageError(f"--fps {args.fps}: must be >= 1")
+        log.info("wrote %s", write_movie(path, out, field=args.field, fps=args.fps))
+        return 0
+    files = plot_run(path, out, field=args.field, max_snapshots=args.max_snapshots,
+                     data_dir=args.data)
     for f in files:
         log.info("wrote %s", f)
     return 0
