@@ -4,7 +4,8 @@ By default the fluid is coloured by its pressure, elastic solids by the von Mise
 by the accumulated plastic strain; walls are grey (rigid bodies dark grey). Each field has its
 colour bar and one colour scale over every snapshot drawn. ``field`` colours every body that
 has that field by it (one bar) and the others grey. The axes hold the whole domain (every
-particle of every snapshot drawn) at equal aspect, and the figure is sized to it.
+particle of every snapshot drawn but a few splashed ones) at equal aspect, and the figure is
+sized to it.
 :class:`SceneFigure` draws snapshot after snapshot on one figure (PNGs and movie frames).
 """
 
@@ -31,6 +32,7 @@ GREY = {"walls": "0.62", "rigid": "0.3"}
 WIDTH = 9.0  # in: figure width (less for a tall domain)
 MAX_AXES_HEIGHT = 6.0  # in
 DPI = 100
+SPLASH = 0.001  # fraction of a body's particles that may lie outside the picture
 MARGIN = {"left": 0.75, "right": 0.25, "top": 0.4, "bottom": 0.55, "bars": 0.55, "gap": 0.12}
 
 
@@ -98,14 +100,18 @@ class SceneFigure:
         return {k: (lo[k], hi[k] if hi[k] > lo[k] else lo[k] + 1.0) for k in lo}
 
     def _extent(self):
+        """The first snapshot's bounding box grown to hold the later snapshots' particles,
+        but for the farthest 0.1 % of each body's (a few splashed particles do not leave the
+        picture empty), padded by a spacing."""
         lo, hi = np.full(2, np.inf), np.full(2, -np.inf)
-        for g in self.groups:
+        for k, g in enumerate(self.groups):
             for body in g.values():
                 x = body["x"][()]
                 if len(x):
-                    lo, hi = np.minimum(lo, x.min(0)), np.maximum(hi, x.max(0))
-        pad = self.dx
-        return lo - pad, hi + pad
+                    q = [0.0, 1.0] if k == 0 else [SPLASH, 1.0 - SPLASH]
+                    a, b = np.quantile(x, q, axis=0, method="nearest")
+                    lo, hi = np.minimum(lo, a), np.maximum(hi, b)
+        return lo - self.dx, hi + self.dx
 
     def _layout(self):
         """Figure and axes sized to the domain's aspect; a row of colour bars below."""
