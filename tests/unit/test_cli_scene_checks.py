@@ -170,3 +170,18 @@ def test_info_reports_the_scene(capsys):
     assert "memory estimate: 395 MiB" in text
     assert "first stable time step: 0.0002 s (sub-steps: gate 26)" in text
     assert "steps to t_end = 0.4 s: about 2000" in text
+
+
+def test_fluid_over_a_soil_polygon_is_refused_and_beside_it_allowed(tmp_path, capsys):
+    soil = ("[soil.bank]\nmaterial = { model = \"drucker_prager\", rho0 = 2000.0, E = 1.0e7, "
+            "nu = 0.3, friction_angle_deg = 30.0 }\nblocks = [{ shape = \"polygon\", vertices = "
+            "[[0.2, 0.0], [0.4, 0.0], [0.4, VY]] }]\n")
+    case = write(tmp_path, TANK.replace("BX", "0.0") + soil.replace("VY", "0.2"))
+    # a triangle beside the block (it touches the block's corner at (0.2, 0)) is allowed; one
+    # leaning over the block is refused (its overlap sampled over the polygon)
+    assert main(["info", case]) == 0
+    capsys.readouterr()
+    steep = soil.replace("[0.4, 0.0], [0.4, VY]", "[0.4, 0.0], [0.1, 0.2]")
+    case = write(tmp_path, TANK.replace("BX", "0.0") + steep, "steep.toml")
+    assert_refused(capsys, ["info", case], "fluid.blocks[0] overlaps soil.bank.blocks[0]",
+                   "not coupled", "move one of the two")
