@@ -103,7 +103,6 @@ def cmd_run(args):
     from fsi_sph.config import load_config, load_config_from_run
     from fsi_sph.output import read_restart, refuse_overwrite
     from fsi_sph.scene_checks import check_scene
-    from fsi_sph.simulation import Simulation
 
     if args.max_steps is not None and args.max_steps < 0:
         raise UsageError(f"--max-steps {args.max_steps}: must be >= 0")
@@ -133,10 +132,7 @@ def cmd_run(args):
     if out is not None and not args.overwrite:
         refuse_overwrite(out / "run.h5")
     log.info("case %s: %s", case, ", ".join(cfg.modules()))
-    try:
-        sim = Simulation(cfg)
-    except ConfigError as e:  # raised while building the scene: name the file too
-        raise ConfigError(f"{case}: {e}") from None
+    sim = _build(cfg, case)
     log.info("%d particles, set-up %.2f s (JIT compile included)", sim.n_particles,
              sim.timings["setup"])
     try:
@@ -155,6 +151,16 @@ def cmd_run(args):
     return 0
 
 
+def _build(cfg, case):
+    """The scene's :class:`Simulation`; an error found while building it names the file."""
+    from fsi_sph.simulation import Simulation
+
+    try:
+        return Simulation(cfg)
+    except ConfigError as e:
+        raise ConfigError(f"{case}: {e}") from None
+
+
 def cmd_info(args):
     from fsi_sph.config import load_config
     from fsi_sph.scene_checks import check_scene
@@ -163,18 +169,16 @@ def cmd_info(args):
     est = check_scene(cfg, args.case)
     print(f"case file: {args.case}")
     print("physics modules enabled: " + ", ".join(cfg.modules()))
-    _print_scene(cfg, est)
+    _print_scene(cfg, est, _build(cfg, args.case))
     print("resolved config:")
     print(json.dumps(cfg.model_dump(mode="json"), indent=2))
     return 0
 
 
-def _print_scene(cfg, est):
+def _print_scene(cfg, est, sim):
     """Particles per body, memory, first stable step and steps to t_end of the built scene."""
     from fsi_sph.scene_checks import machine_memory, size_text
-    from fsi_sph.simulation import Simulation
 
-    sim = Simulation(cfg)
     counts = {name: o.body.n for name, o in sim.bodies().items()}
     if sim.fluid is not None and sim.fluid.walls is not None:
         counts["walls"] = sim.fluid.walls.body.n
