@@ -10,6 +10,7 @@ import argparse
 import importlib.util
 import json
 import logging
+import math
 import os
 import sys
 from pathlib import Path
@@ -39,15 +40,25 @@ def _parser():
                    "is given; without CASE the run's stored config is used)")
     r.add_argument("--threads", type=int, help="numba threads (default: all cores)")
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
+    r.add_argument("--force", action="store_true",
+                   help="run a scene even if its memory estimate exceeds the machine's memory")
+    r.add_argument("--overwrite", action="store_true",
+                   help="replace the run already in the output folder")
 
-    i = sub.add_parser("info", help="print the resolved config and the enabled physics")
+    i = sub.add_parser("info", help="what the scene will be (particles, memory, time step, "
+                       "steps), the enabled physics and the resolved config")
     i.add_argument("case")
     i.add_argument("--set", dest="overrides", action="append", default=[], metavar="K=V")
 
     pl = sub.add_parser("plot", help="PNG snapshots and probe time series of a run")
     pl.add_argument("run_file", metavar="RUN.h5")
-    pl.add_argument("--field", default="von_mises",
-                    help="field that colours the particles (default: von_mises)")
+    pl.add_argument("--field", help="colour every body that has this field by it (default: "
+                    "each body by its natural field: fluid p, elastic von_mises, soil eps_p)")
+    pl.add_argument("--movie", action="store_true",
+                    help="write movie.mp4 of every snapshot (movie.gif without an encoder)")
+    pl.add_argument("--fps", type=int, default=10, help="movie frames per second (default 10)")
+    pl.add_argument("--data", default=str(REPO.parent / "shared" / "validation_data"),
+                    help="folder of the reference data the case's probes name")
     pl.add_argument("--out", help="folder for the PNGs (default: beside RUN.h5)")
     pl.add_argument("--max-snapshots", type=int, default=12,
                     help="at most this many snapshot images, evenly spaced (default 12)")
@@ -90,8 +101,8 @@ def _set_threads(n):
 
 def cmd_run(args):
     from fsi_sph.config import load_config, load_config_from_run
-    from fsi_sph.output import read_restart
-    from fsi_sph.simulation import Simulation
+    from fsi_sph.output import read_restart, refuse_overwrite
+    from fsi_sph.scene_checks import check_scene
 
     if args.max_steps is not None and args.max_steps < 0:
         raise UsageError(f"--max-steps {args.max_steps}: must be >= 0")
@@ -107,21 +118,23 @@ def cmd_run(args):
     if args.case or resume is None:
         case = Path(args.case) if args.case else DEFAULT_CASE
         cfg = load_config(case, args.overrides)
+        label = str(case)
     else:
         case = resume
         cfg = load_config_from_run(resume, args.overrides)
+        label = f"{resume} (stored config)"
+    check_scene(cfg, label, force=args.force)
     _set_threads(args.threads)
     if resume is not None:
         out = Path(args.out) if args.out else None
     else:
         out = Path(args.out) if args.out else Path("runs") / cfg.case.name
+    if out is not None and not args.overwrite:
+        refuse_overwrite(out / "run.h5")
     log.info("case %s: %s", case, ", ".join(cfg.modules()))
     for pick in cfg.numerics_picked():
         log.info("picked %s", pick)
-    try:
-        sim = Simulation(cfg)
-    except ConfigError as e:  # raised while building the scene: name the file too
-        raise ConfigError(f"{case}: {e}") from None
+    sim = _build(cfg, case)
     log.info("%d particles, set-up %.2f s (JIT compile included)", sim.n_particles,
              sim.timings["setup"])
     try:
@@ -140,19 +153,52 @@ def cmd_run(args):
     return 0
 
 
+def _build(cfg, case):
+    """The scene's :class:`Simulation`; an error found while building it names the file."""
+    from fsi_sph.simulation import Simulation
+
+    try:
+        return Simulation(cfg)
+    except ConfigError as e:
+        raise ConfigError(f"{case}: {e}") from None
+
+
 def cmd_info(args):
     from fsi_sph.config import load_config
+    from fsi_sph.scene_checks import check_scene
 
     cfg = load_config(args.case, args.overrides)
+    est = check_scene(cfg, args.case)
     print(f"case file: {args.case}")
     print("physics modules enabled: " + ", ".join(cfg.modules()))
     picks = cfg.numerics_picked()
     print("numerics picked from the declared physics" + (":" if picks else ": none"))
     for pick in picks:
         print(f"  {pick}")
+    _print_scene(cfg, est, _build(cfg, args.case))
     print("resolved config:")
     print(json.dumps(cfg.model_dump(mode="json"), indent=2))
     return 0
+
+
+def _print_scene(cfg, est, sim):
+    """Particles per body, memory, first stable step and steps to t_end of the built scene."""
+    from fsi_sph.scene_checks import machine_memory, size_text
+
+    counts = {name: o.body.n for name, o in sim.bodies().items()}
+    if sim.fluid is not None and sim.fluid.walls is not None:
+        counts["walls"] = sim.fluid.walls.body.n
+    print("particles: " + ", ".join(f"{k} {n}" for k, n in counts.items())
+          + f" (total {sum(counts.values())})")
+    print(f"memory estimate: {size_text(est.memory)} (this machine: "
+          f"{size_text(machine_memory())})")
+    dt = sim.stable_dt()
+    subs = {n: max(1, math.ceil(dt / b.stable_dt() - 1e-12)) for n, b in sim.structures.items()}
+    print(f"first stable time step: {dt:.3g} s"
+          + (" (sub-steps: " + ", ".join(f"{n} {k}" for n, k in subs.items()) + ")"
+             if subs and sim.fluid is not None else ""))
+    print(f"steps to t_end = {cfg.case.t_end:g} s: about {math.ceil(cfg.case.t_end / dt)} "
+          "(an estimate: a faster flow takes shorter steps)")
 
 
 def cmd_plot(args):
@@ -162,7 +208,15 @@ def cmd_plot(args):
     if not path.is_file():
         raise UsageError(f"{path}: no such run file")
     out = Path(args.out) if args.out else path.parent / "plots"
-    files = plot_run(path, out, field=args.field, max_snapshots=args.max_snapshots)
+    if args.movie:
+        from fsi_sph.movie import write_movie
+
+        if args.fps < 1:
+            raise UsageError(f"--fps {args.fps}: must be >= 1")
+        log.info("wrote %s", write_movie(path, out, field=args.field, fps=args.fps))
+        return 0
+    files = plot_run(path, out, field=args.field, max_snapshots=args.max_snapshots,
+                     data_dir=args.data)
     for f in files:
         log.info("wrote %s", f)
     return 0
@@ -271,6 +325,10 @@ def main(argv=None):
     except (ConfigError, UsageError) as e:
         print(f"fsi-sph: error: {e}", file=sys.stderr)
         return 2
+    except MemoryError:
+        print("fsi-sph: out of memory: the scene is too large for this machine (see `fsi-sph "
+              "info CASE` for its memory estimate; raise case.dx)", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         print("fsi-sph: interrupted; the output file keeps every snapshot written so far",
               file=sys.stderr)

@@ -28,6 +28,12 @@ class ShakenFrame:
         inertial = self.amplitude * self.omega ** 2 * math.sin(self.omega * t)
         return self.gravity + inertial * self.direction
 
+    def apply(self, t: float, bodies: dict) -> None:
+        """Set ``g - X''(t)`` as the body force of every body (``set_gravity``)."""
+        g = self.body_force(t)
+        for body in bodies.values():
+            body.set_gravity(g)
+
     def peak_body_force(self) -> float:
         """The largest ``|g - X''|`` over a period (bounds for the time step and guard)."""
         return float(np.hypot(*self.gravity)) + self.amplitude * self.omega ** 2

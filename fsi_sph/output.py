@@ -35,6 +35,8 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from fsi_sph.errors import UsageError
+
 log = logging.getLogger(__name__)
 
 
@@ -118,7 +120,10 @@ class RunWriter:
                 g = f["snapshots"][name]
                 if g.attrs["t"] > t + eps:
                     del f["snapshots"][name]
+                    if f"xdmf/{name}" in f:
+                        del f[f"xdmf/{name}"]
                     continue
+                _write_xyz(f, f"snapshots/{name}")  # a file written before they existed
                 shapes = {b: {k: g[b][k].shape for k in g[b]} for b in g}
                 self.snapshots.append((f"snapshots/{name}", float(g.attrs["t"]), shapes))
                 self.last_snapshot_t = float(g.attrs["t"])
@@ -152,6 +157,7 @@ class RunWriter:
                     for k, v in fields.items():
                         gb.create_dataset(k, data=v)
                         shapes[body][k] = v.shape
+                _write_xyz(f, name)
                 self.snapshots.append((name, t, shapes))
             for pname, (columns, rows) in probes.items():
                 if rows:
@@ -188,21 +194,42 @@ class RunWriter:
                 parts.append(f'<DataItem Dimensions="{n} 2" Format="HDF" NumberType="Float" '
                              f'Precision="8">{h5}:/{name}/{body}/x</DataItem></Geometry>')
                 for field, shape in fields.items():
-                    if len(shape) == 1:
-                        kind, dims = "Scalar", f"{n}"
-                    elif len(shape) == 2:
-                        kind, dims = "Vector", f"{n} {shape[1]}"
-                    else:
-                        continue  # 2x2 tensors: in the .h5 only
-                    parts.append(f'<Attribute Name="{field}" AttributeType="{kind}" Center="Node">'
-                                 f'<DataItem Dimensions="{dims}" Format="HDF" NumberType="Float" '
-                                 f'Precision="8">{h5}:/{name}/{body}/{field}</DataItem></Attribute>')
+                    if len(shape) <= 2 and field != "x":  # x: the geometry; tensors: .h5 only
+                        parts.append(_xdmf_attribute(field, shape, h5, name, body))
                 parts.append("</Grid>")
             parts.append("</Grid>")
         parts += ["</Grid>", "</Domain>", "</Xdmf>", ""]
         tmp = self.xmf_path.with_suffix(".xmf.tmp")
         tmp.write_text("\n".join(parts))
         tmp.replace(self.xmf_path)
+
+
+def _write_xyz(f, name):
+    """The 2-vectors of snapshot ``name`` (but the positions) as 3-vectors ``(x, y, 0)`` in
+    float32 under ``xdmf/<name>``, for the sidecar: ParaView's glyph and stream filters
+    expect 3 components, and its Xdmf3 reader does not evaluate XDMF functions (tried:
+    JOIN of two hyperslabs) nor, here, HDF5 virtual datasets."""
+    for body, g in f[name].items():
+        for k, ds in g.items():
+            path = f"xdmf/{name}/{body}/{k}"
+            if k == "x" or ds.ndim != 2 or ds.shape[1] != 2 or path in f:
+                continue
+            xyz = np.zeros((ds.shape[0], 3), dtype=np.float32)
+            xyz[:, :2] = ds[()]
+            f.create_dataset(path, data=xyz)
+
+
+def _xdmf_attribute(field, shape, h5, name, body):
+    """An XDMF attribute: a scalar of the snapshot, or its 2-vector as the sidecar's
+    3-vector copy (:func:`_write_xyz`)."""
+    n = shape[0]
+    if len(shape) == 1:
+        kind, dims, ref, size = "Scalar", f"{n}", f"{name}/{body}/{field}", 8
+    else:
+        kind, dims, ref, size = "Vector", f"{n} 3", f"xdmf/{name}/{body}/{field}", 4
+    return (f'<Attribute Name="{field}" AttributeType="{kind}" Center="Node"><DataItem '
+            f'Dimensions="{dims}" Format="HDF" NumberType="Float" Precision="{size}">'
+            f'{h5}:/{ref}</DataItem></Attribute>')
 
 
 def _write_restart(f, clock, state):
@@ -248,3 +275,19 @@ def read_probe(path, name):
         cols = json.loads(ds.attrs["columns"])
         data = ds[()]
     return data[:, 0], {c: data[:, k] for k, c in enumerate(cols) if k > 0}
+
+
+def refuse_overwrite(path):
+    """Raise :class:`UsageError` when ``path`` already holds a run (its status and time in
+    the message), so that a second run does not replace what a user computed."""
+    path = Path(path)
+    if not path.exists():
+        return
+    try:
+        with h5py.File(path, "r") as f:
+            status = f.attrs.get("status", "unknown")
+            n = len(f["snapshots"]) if "snapshots" in f else 0
+    except OSError:
+        status, n = "not readable", 0
+    raise UsageError(f"{path} already holds a run ({status}, {n} snapshots); --overwrite "
+                     f"replaces it, --out DIR writes elsewhere")

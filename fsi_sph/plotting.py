@@ -3,98 +3,77 @@
 from __future__ import annotations
 
 import json
+import logging
 from pathlib import Path
 
-import h5py
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from fsi_sph.errors import UsageError
+from fsi_sph.plot_scene import DPI, SceneFigure, open_run, time_stamp  # noqa: E402
+from fsi_sph.references import probe_references  # noqa: E402
+
+log = logging.getLogger(__name__)
 
 
-def _scalar(values):
-    """A per-particle scalar from a field: vectors -> magnitude, tensors -> Frobenius norm."""
-    v = np.asarray(values)
-    if v.ndim == 1:
-        return v
-    return np.sqrt(np.sum(v.reshape(len(v), -1) ** 2, axis=1))
-
-
-def plot_run(path, out_dir, field="von_mises", max_snapshots=12):
-    """Write ``snapshot_<k>.png`` for evenly spaced snapshots and ``probe_<name>.png`` for
-    every probe; returns the list of files written."""
+def plot_run(path, out_dir, field=None, max_snapshots=12, data_dir=None):
+    """Write ``snapshot_<k>.png`` for evenly spaced snapshots (:class:`SceneFigure`) and
+    ``probe_<name>.png`` for every probe (with its reference curves when the case names them
+    and ``data_dir`` holds them); returns the list of files written."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    files = []
-    try:
-        f = h5py.File(path, "r")
-    except OSError as e:
-        raise UsageError(f"{path}: not a readable HDF5 run file ({e})") from None
+    f, groups = open_run(path)
     with f:
-        if "snapshots" not in f:
-            raise UsageError(f"{path}: not an fsi_sph run file (no /snapshots)")
-        snaps = sorted(f["snapshots"])
-        if not snaps:
-            raise UsageError(f"{path}: the run has no snapshot")
-        pick = np.unique(np.linspace(0, len(snaps) - 1, min(max_snapshots, len(snaps))).astype(int))
-        fields = set()
-        for b in f["snapshots"][snaps[0]]:
-            fields |= set(f["snapshots"][snaps[0]][b])
-        if field not in fields:
-            raise UsageError(f"--field {field}: not in this run; available: "
-                             f"{', '.join(sorted(fields))}")
-        # common colour scale and axes over the snapshots shown
-        lo, hi = np.inf, -np.inf
-        xlo, xhi = np.full(2, np.inf), np.full(2, -np.inf)
+        pick = np.unique(np.linspace(0, len(groups) - 1,
+                                     min(max_snapshots, len(groups))).astype(int))
+        scene = SceneFigure(f, [groups[k] for k in pick], field)
+        files = []
+        name = json.loads(f.attrs["config"])["case"]["name"]
         for k in pick:
-            for g in f["snapshots"][snaps[k]].values():
-                if field not in g:  # e.g. wall particles carry only x and p
-                    continue
-                s = _scalar(g[field][()])
-                lo, hi = min(lo, s.min()), max(hi, s.max())
-                x = g["x"][()]
-                xlo, xhi = np.minimum(xlo, x.min(0)), np.maximum(xhi, x.max(0))
-        pad = 0.05 * max(xhi - xlo)
-        for k in pick:
-            g0 = f["snapshots"][snaps[k]]
-            fig, ax = plt.subplots(figsize=(8, 4.5), layout="constrained")
-            for g in g0.values():
-                x = g["x"][()]
-                if field not in g:
-                    ax.scatter(x[:, 0], x[:, 1], s=2, c="0.6", linewidths=0)
-                    continue
-                sc = ax.scatter(x[:, 0], x[:, 1], c=_scalar(g[field][()]), s=4, vmin=lo, vmax=hi,
-                                cmap="viridis", linewidths=0)
-            fig.colorbar(sc, ax=ax, label=field)
-            ax.set_aspect("equal")
-            ax.set_xlim(xlo[0] - pad, xhi[0] + pad)
-            ax.set_ylim(xlo[1] - pad, xhi[1] + pad)
-            ax.set_xlabel("x (m)")
-            ax.set_ylabel("y (m)")
-            ax.set_title(f"t = {g0.attrs['t']:.4f} s  ({field})")
-            name = out / f"snapshot_{k:04d}.png"
-            fig.savefig(name, dpi=110)
-            plt.close(fig)
-            files.append(name)
+            scene.draw(groups[k], time_stamp(groups[k], name))
+            files.append(out / f"snapshot_{k:04d}.png")
+            scene.fig.savefig(files[-1], dpi=DPI)
+        scene.close()
+        refs = probe_references(f.attrs["config"], data_dir)
         for pname, ds in f["probes"].items():
-            cols = json.loads(ds.attrs["columns"])
-            data = ds[()]
-            fig, axes = plt.subplots(len(cols) - 1, 1, figsize=(7, 1.8 * (len(cols) - 1) + 0.6),
-                                     sharex=True, layout="constrained", squeeze=False)
-            for c, ax in enumerate(axes[:, 0], start=1):
-                ax.plot(data[:, 0], data[:, c], lw=1.2)
-                ax.set_ylabel(cols[c])
-                ax.grid(alpha=0.3)
-            axes[-1, 0].set_xlabel("t (s)")
-            axes[0, 0].set_title(f"probe {pname}")
-            name = out / f"probe_{pname}.png"
-            fig.savefig(name, dpi=110)
-            plt.close(fig)
-            files.append(name)
+            files.append(plot_probe(pname, ds, refs.get(pname, []), out))
     return files
+
+
+def plot_probe(name, ds, refs, out):
+    """``probe_<name>.png`` (:func:`probe_figure`); returns the file."""
+    fig = probe_figure(name, ds, refs)
+    path = out / f"probe_{name}.png"
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def probe_figure(name, ds, refs):
+    """Each column of a probe (an h5py dataset) against time, with the reference curves
+    drawn over their column."""
+    cols = json.loads(ds.attrs["columns"])
+    data = ds[()]
+    for ref in refs:
+        if ref["column"] not in cols:
+            log.warning("probe %s: reference %r names column %r; the probe's columns are %s",
+                        name, ref["label"], ref["column"], ", ".join(cols[1:]))
+    fig, axes = plt.subplots(len(cols) - 1, 1, figsize=(7, 1.8 * (len(cols) - 1) + 0.6),
+                             sharex=True, layout="constrained", squeeze=False)
+    for c, ax in enumerate(axes[:, 0], start=1):
+        ax.plot(data[:, 0], data[:, c], lw=1.2, label="this run")
+        mine = [ref for ref in refs if ref["column"] == cols[c]]
+        for ref in mine:
+            ax.plot(ref["t"], ref["value"], "o", ms=4, mfc="none", label=ref["label"])
+        if mine:
+            ax.legend(fontsize=8)
+        ax.set_ylabel(cols[c])
+        ax.grid(alpha=0.3)
+    axes[-1, 0].set_xlabel("t (s)")
+    axes[0, 0].set_title(f"probe {name}")
+    return fig
 
 
 def error_vs_time(records, error_keys, title, path, marks=None):

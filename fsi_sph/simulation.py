@@ -19,6 +19,7 @@ from fsi_sph.errors import SimulationError
 from fsi_sph.frame import frame_of, peak_gravity
 from fsi_sph.guard import Guard
 from fsi_sph.probes import make_probe
+from fsi_sph.progress import Progress
 from fsi_sph.soil.drucker_prager import DruckerPragerBody
 from fsi_sph.solid.tlsph import ElasticBody
 from fsi_sph.step_table import StepTable
@@ -95,6 +96,19 @@ class Simulation:
         return out
 
     # ------------------------------------------------------------------ the time step
+    def _limits(self):
+        """Every body's stability limit and the macro step's: the fluid's when there is a
+        fluid (the structures are sub-cycled inside its step), else the stiffest body's."""
+        limits = [b.stable_dt() for b in self.structures.values()]
+        if self.fluid is not None:
+            limits.append(self.fluid.stable_dt())
+            return limits, limits[-1]
+        return limits, min(limits)
+
+    def stable_dt(self) -> float:
+        """The stable macro step in the current state."""
+        return self._limits()[1]
+
     def step(self, dt_max=math.inf, to_end=False):
         """Advance every body by one macro step; returns (dt, {body: n_sub}).
 
@@ -104,18 +118,12 @@ class Simulation:
         layer's final pressure field at 2.4 times the hydrostatic one)."""
         # 1. time step: the fluid's when there is a fluid; else the stiffest structure's
         fluid = self.fluid
-        limits = [b.stable_dt() for b in self.structures.values()]
-        if fluid is not None:  # the structures are sub-cycled inside the fluid step
-            limits.append(fluid.stable_dt())
-            dt = min(dt_max, limits[-1])
-        else:
-            dt = min(dt_max, *limits)
+        limits, dt = self._limits()
+        dt = min(dt_max, dt)
         if to_end and dt < dt_max < 2.0 * dt:
             dt = 0.5 * dt_max
         if self.frame is not None:  # the frame's body force at the middle of the step
-            g = self.frame.body_force(self.t + 0.5 * dt)
-            for body in self.bodies().values():
-                body.set_gravity(g)
+            self.frame.apply(self.t + 0.5 * dt, self.bodies())
         if not all(d > 0.0 for d in limits):  # NaN or collapsed: let the guard name the culprit
             self.guard.check(self.t, self.n_steps, self.bodies())
             raise SimulationError(f"time step {dt:.3g} s at t = {self.t:.6g} s, step "
@@ -240,7 +248,7 @@ class Simulation:
                 snap = None
                 if snapshot:
                     last_snapshot[0] = self.t
-                    snap = self._snapshot()
+                    snap = self.snapshot()
                 writer.write(self.t, self.n_steps, snap, rows, step_rows, _timing_attrs(self),
                              status,
                              restart=(self.clock(), self.state()) if restart_point else None)
@@ -249,7 +257,7 @@ class Simulation:
             step_rows = []
             self.timings["output"] += time.perf_counter() - t0
 
-        bar = _progress(progress, c.t_end, self.t)
+        bar = Progress(c.t_end, self.t) if progress else None
         loop_t0 = time.perf_counter()
         status = "completed"
         try:
@@ -267,7 +275,7 @@ class Simulation:
                 dt, n_sub = self.step(dt_max=c.t_end - self.t, to_end=True)
                 step_rows.append(self.step_table.row(self.t, dt, n_sub))
                 if bar is not None:
-                    bar.update(dt)
+                    bar.update(self.t)
                 t0 = time.perf_counter()
                 snapshot_due = self.t >= self.next_out - eps
                 if snapshot_due or self.n_steps % self.cfg.guard.check_every == 0:
@@ -293,7 +301,7 @@ class Simulation:
             if writer is not None:
                 if status.startswith("failed"):
                     flush(False, status)
-                    self._write_last_good(writer, status)
+                    _write_last_good(self, writer, status)
                 else:
                     flush(last_snapshot[0] < self.t, status,
                           restart_point=status == "completed" and last_snapshot[0] < self.t)
@@ -305,24 +313,26 @@ class Simulation:
                    "output": str(writer.path) if writer else None}
         return summary
 
-    def _write_last_good(self, writer, status):
-        """After a failure: write the last state that passed the guard as a snapshot (attr
-        ``last_good``) and as the restart state, so the user can look at it and restart."""
-        if self.last_good is None or self.last_good[0]["t"] <= writer.last_snapshot_t:
-            return
-        good_clock, good_state = self.last_good
-        failed_clock, failed_state = self.clock(), self.state()
-        self.load_state(good_clock, good_state)
-        snap = self._snapshot()
-        self.load_state(failed_clock, failed_state)  # the object keeps the failed state
-        writer.write(good_clock["t"], good_clock["step"], snap, {}, [], _timing_attrs(self),
-                     status, restart=(good_clock, good_state), last_good=True)
-
-    def _snapshot(self):
+    def snapshot(self):
+        """Every body's (and the walls') output arrays now."""
         snap = {n: b.snapshot() for n, b in self.bodies().items()}
         if self.fluid is not None and self.fluid.walls is not None:
             snap["walls"] = self.fluid.wall_snapshot()
         return snap
+
+
+def _write_last_good(sim, writer, status):
+    """After a failure: write the last state that passed the guard as a snapshot (attr
+    ``last_good``) and as the restart state, so the user can look at it and restart."""
+    if sim.last_good is None or sim.last_good[0]["t"] <= writer.last_snapshot_t:
+        return
+    good_clock, good_state = sim.last_good
+    failed_clock, failed_state = sim.clock(), sim.state()
+    sim.load_state(good_clock, good_state)
+    snap = sim.snapshot()
+    sim.load_state(failed_clock, failed_state)  # the object keeps the failed state
+    writer.write(good_clock["t"], good_clock["step"], snap, {}, [], _timing_attrs(sim),
+                 status, restart=(good_clock, good_state), last_good=True)
 
 
 def _open_writer(sim, out_dir, case_file, resume):
@@ -350,16 +360,6 @@ def _timing_attrs(sim):
     out["steps"] = sim.n_steps
     out["particle_steps"] = sim.particle_steps
     return out
-
-
-def _progress(enabled, total, start=0.0):
-    if not enabled:
-        return None
-    from tqdm import tqdm
-
-    # shown only when the run lasts more than 2 s; off when stderr is not a terminal
-    return tqdm(total=total, initial=start, unit="s(sim)", delay=2.0, disable=None,
-                bar_format="{l_bar}{bar}| {n:.4g}/{total:.4g} s [{elapsed}<{remaining}]")
 
 
 def run(case, out_dir=None, overrides=None, max_steps=None, progress=True):

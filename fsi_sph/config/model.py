@@ -36,6 +36,18 @@ class CouplingSection(StrictModel):
         "none is")
 
 
+class ProbeReference(StrictModel):
+    """A reference curve drawn over a probe column by ``fsi-sph plot``."""
+
+    file: str = Field(description="text table (t in its first column), relative to the "
+                      "reference-data folder (`fsi-sph plot --data`)")
+    column: str = Field(description="probe column the curve is drawn over, e.g. `ux`")
+    label: str = Field(description="legend entry, e.g. the source")
+    value_column: Annotated[int, Field(ge=1)] = Field(1, description="column of the values")
+    subtract_first: bool = Field(False, description="subtract the first value (a digitised "
+                                 "displacement measured from its rest position)")
+
+
 class Probe(StrictModel):
     """A time series recorded during the run."""
 
@@ -49,6 +61,8 @@ class Probe(StrictModel):
         "kinetic energy of the fluid")
     body: Name
     at: Vec2 | None = Field(None, description="position (m), for point_displacement and pressure")
+    reference: list[ProbeReference] = Field([], description="reference curves drawn over "
+                                            "the probe's plot")
 
     @model_validator(mode="after")
     def _needs_at(self):

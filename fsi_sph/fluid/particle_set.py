@@ -7,6 +7,7 @@ Density and particle mass are constant: ``vol = dx^2``, ``m = rho0 dx^2``.
 
 from __future__ import annotations
 
+import logging
 import math
 
 import numpy as np
@@ -14,12 +15,27 @@ import numpy as np
 from fsi_sph.fluid import _kernels as K
 from fsi_sph.fluid.lattice import ETA, lattice_offsets, lattice_scales, lattice_sigma
 from fsi_sph.fluid.walls import Walls
-from fsi_sph.geometry import fill_shapes
+from fsi_sph.geometry import fill_shapes, in_shapes
 from fsi_sph.neighbors import find_neighbors
 from fsi_sph.particles import Body, FieldSpec
 from fsi_sph.sph.kernels import KERNELS, SUPPORT
 
 FRONT_MIN_NEIGHBORS = 3  # fluid neighbours of a particle counted in the surge front
+
+log = logging.getLogger(__name__)
+
+
+def _carve(x, structure, dx):
+    """The fluid positions ``x`` without those within half a spacing of a particle of
+    ``structure`` or inside its blocks (the fluid is carved around a coupled structure that
+    its blocks overlap; the count is logged)."""
+    near_start, _ = find_neighbors(x, structure.body["x"], 0.5 * dx)
+    inside = in_shapes(x, structure.cfg.blocks)
+    keep = (np.diff(near_start) == 0) & ~inside
+    if len(x) > np.count_nonzero(keep):
+        log.info("fluid: %d particles inside solid.%s carved out", len(x) - np.count_nonzero(keep),
+                 structure.name)
+    return x[keep]
 
 
 class FluidParticles:
@@ -60,9 +76,8 @@ class FluidParticles:
         if self.walls is not None:  # fluid particles on a wall site are dropped
             near_start, _ = find_neighbors(x, self.walls.body["x"], 0.5 * dx)
             x = x[np.diff(near_start) == 0]
-        for st in structures:  # and so are those on a site of a coupled structure
-            near_start, _ = find_neighbors(x, st.body["x"], 0.5 * dx)
-            x = x[np.diff(near_start) == 0]
+        for st in structures:  # and so are those on a site of, or inside, a coupled structure
+            x = _carve(x, st, dx)
         if cfg.jitter > 0.0:  # one realization of the initial lattice (fluid.jitter)
             rng = np.random.default_rng(cfg.jitter_seed)
             x = x + cfg.jitter * dx * rng.uniform(-1.0, 1.0, size=x.shape)
