@@ -60,12 +60,20 @@ def run_scene(path: Path, overrides=()) -> dict:
     """Run one zoo scene to its ``t_end``; the energy history, status and pass/fail."""
     from fsi_sph.config import load_config
     from fsi_sph.energy import SceneEnergy
-    from fsi_sph.errors import SimulationError
+    from fsi_sph.errors import ConfigError, SimulationError
+    from fsi_sph.scene_checks import check_scene
     from fsi_sph.simulation import Simulation
 
     t0 = time.perf_counter()
-    cfg = load_config(path, list(overrides))
-    sim = Simulation(cfg)
+    try:
+        cfg = load_config(path, list(overrides))
+        check_scene(cfg, str(path))   # the checks `fsi-sph run` makes before a run
+        sim = Simulation(cfg)
+    except ConfigError as e:  # a scene the checks refuse: recorded, the zoo goes on
+        log.info("scene %s refused: %s", path.stem, e)
+        return make_record(path.stem, 0.0, {"n_particles": 0, "steps": 0, "wall_time_s": 0.0,
+                                            "particle_steps_per_s": 0.0}, {},
+                           {"passed": False, "status": f"refused: {e}", "lost": 0})
     energy = SceneEnergy(sim)
     lo, hi = scene_extent(sim)
     dx, t_end = cfg.case.dx, cfg.case.t_end

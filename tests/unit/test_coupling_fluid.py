@@ -55,9 +55,12 @@ def test_coupling_needs_conservative_gradient(tmp_path):
     from fsi_sph.errors import ConfigError
 
     p = tmp_path / "c.toml"
-    p.write_text(CASE.replace('pressure_gradient = "conservative"\n', ""))
+    p.write_text(CASE.replace('pressure_gradient = "conservative"\n',
+                              'pressure_gradient = "corrected"\n'))
     with pytest.raises(ConfigError, match="conservative"):
         load_config(p)
+    p.write_text(CASE.replace('pressure_gradient = "conservative"\n', ""))  # left out: picked
+    assert load_config(p).fluid.pressure_gradient == "interface_conservative"
 
 
 def test_implicit_structure_rows_match_formula(rng):

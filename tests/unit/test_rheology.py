@@ -143,8 +143,8 @@ def test_config_errors_name_key_and_value(kw, message):
 
 
 def test_config_modules():
-    assert mui_config().modules() == ["isph_fluid", "walls", "mu_i", "implicit_viscosity",
-                                      "periodic_x"]
+    assert mui_config().modules() == ["isph_fluid", "walls", "shifting:fickian_fixed", "mu_i",
+                                      "implicit_viscosity", "periodic_x"]
 
 
 # ---------------------------------------------------------------------------- implicit step
