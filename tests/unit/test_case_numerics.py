@@ -114,6 +114,10 @@ def test_a_coupled_structure_takes_the_coupled_scheme():
     f = cfg.fluid
     assert f.pressure_gradient == "interface_conservative" and f.collision is not None
     assert f.dt_max == 2.0e-4 and f.shifting.model == "fickian" and f.shifting.coefficient == 2.0
+    free = load_config(None, text=GATE.replace('clamp = [{ origin = [0.15, 0.09], size = [0.01, '
+                                               '0.01] }]\n', ""))
+    assert free.fluid.dt_max == 1.0   # a free body: the advective step, not the clamped bound
+    assert free.fluid.pressure_gradient == "interface_conservative"
 
 
 def test_the_case_overrides_a_pick_and_can_switch_a_model_off():
