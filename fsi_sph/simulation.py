@@ -117,6 +117,8 @@ class Simulation:
         if fluid is not None:
             if coupling is not None:
                 coupling.before_fluid()
+            if fluid.open is not None:  # particles across the open lines; buffer velocities
+                self._timed("open_boundaries", fluid.exchange_open_boundaries, self.t, dt)
             self._timed("neighbours", fluid.update_neighbors)
             self._timed("free_surface", fluid.detect_free_surface)
             if fluid.shifting_enabled:
@@ -182,6 +184,8 @@ class Simulation:
         if set(state) != set(bodies):
             raise SimulationError(f"restart: the saved bodies {sorted(state)} are not the "
                                   f"scene's {sorted(bodies)}")
+        for key, arrays in extra.items():  # first: the fluid's count may change with it
+            bodies[key.removesuffix(".extra")].load_extra_state(arrays)
         for name, arrays in state.items():
             b = bodies[name].body
             for k, v in arrays.items():
@@ -190,8 +194,6 @@ class Simulation:
                         f"restart: body {name!r} field {k!r} has shape {v.shape} in the file "
                         f"but {b.arrays[k].shape if k in b.arrays else 'none'} in the scene")
                 b.arrays[k][...] = v
-        for key, arrays in extra.items():
-            bodies[key.removesuffix(".extra")].load_extra_state(arrays)
         self.t = float(clock["t"])
         self.n_steps = int(clock["step"])
         self.particle_steps = int(clock["particle_steps"])

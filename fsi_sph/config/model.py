@@ -10,6 +10,7 @@ from pydantic import Field, model_validator
 
 from fsi_sph.config.base import Name, StrictModel, Vec2
 from fsi_sph.config.fluid import FluidSection, WallsSection
+from fsi_sph.config.open_boundary import check_open_boundaries
 from fsi_sph.config.scene import CaseSection, GuardSection, SphSection
 from fsi_sph.config.soil import Boundary, SoilBody
 from fsi_sph.config.solid import SolidBody
@@ -92,6 +93,7 @@ class Config(StrictModel):
                 raise ValueError(f"fluid.periodic_x: period {period:g} m is shorter than two "
                                  f"kernel supports plus dx ({2.0 * support + self.case.dx:g} m)"
                                  ": a particle would meet two images of one neighbour")
+        check_open_boundaries(self)
         if self.walls is not None and self.fluid is None:
             raise ValueError("[walls] without [fluid]: walls only bound the fluid")
         for name, sec in self.solid.items():

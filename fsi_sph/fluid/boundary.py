@@ -179,6 +179,31 @@ class BoundaryRows:
                                       self.rows.no_rows, self.rows.no_rg, gp)
         return gp
 
+    def fluid_average(self, fields, n_rows):
+        """Shepard averages ``<f>_w = sum_f f_f W_wf / sum_f W_wf`` over the fluid
+        neighbours of the first ``n_rows`` boundary rows, one column per stacked field
+        (NaN without fluid neighbours)."""
+        ps = self.ps
+        xw = ps.x_all[ps.nf:ps.nf + n_rows]
+        mean = np.empty((n_rows, len(fields)))
+        for k, field in enumerate(fields):
+            K.shepard_at(xw, ps.x_all, np.ascontiguousarray(field), ps.wf_start,
+                         ps.wf_j, ps.h, ps.kernel, mean[:, k])
+        return mean
+
+    def no_slip_velocity(self):
+        """Velocity of the boundary rows in the viscous term with a no-slip surface
+        (Adami et al. 2012, J. Comput. Phys. 231:7057, eq. 23): ``u_w = 2 v_w - <u_f>_w``,
+        the fluid's velocity mirrored about the wall's own ``v_w`` so that it vanishes
+        relative to the wall at the wall's surface and not a few layers inside it; ``v_w``
+        where no fluid is near, and the buffers of the open boundaries at their own
+        (prescribed or extrapolated) velocity."""
+        ps = self.ps
+        mean = self.fluid_average((ps.v_all[:, 0], ps.v_all[:, 1]), ps.nw)
+        u_w = np.where(np.isfinite(mean), 2.0 * ps.v_b - mean, ps.v_b)
+        u_w[ps.n_fixed:ps.n_walls] = ps.v_b[ps.n_fixed:ps.n_walls]
+        return u_w
+
     def refresh_wall_pressure(self):
         """Incremental projection: the fixed walls' ``p^n`` re-extrapolated from the fluid's
         ``p^n`` at the current positions by the standard wall row (Adami; ``ppe_fill``),
@@ -194,10 +219,7 @@ class BoundaryRows:
             return
         ps.sync()
         xw = ps.x_all[nf:nf + nwall]
-        mean = np.empty((nwall, 3))  # <p_f>, <x_f>, <y_f>
-        for k, field in enumerate((ps.p_all, ps.x_all[:, 0], ps.x_all[:, 1])):
-            K.shepard_at(xw, ps.x_all, np.ascontiguousarray(field), ps.wf_start,
-                         ps.wf_j, ps.h, ps.kernel, mean[:, k])
+        mean = self.fluid_average((ps.p_all, ps.x_all[:, 0], ps.x_all[:, 1]), nwall)
         rbar = xw - mean[:, 1:]
         gb = self.wall_body_force()[:nwall]
         pw = mean[:, 0] + ps.rho * np.einsum("ij,ij->i", gb, rbar)
