@@ -9,7 +9,7 @@ from pydantic import Field, model_validator
 
 from fsi_sph.config.base import NonNegative, Positive, StrictModel, Vec2
 from fsi_sph.config.open_boundary import Inflow, Outflow
-from fsi_sph.config.scene import Shape
+from fsi_sph.config.scene import BodyShape, Shape
 
 
 class MuIParameters(StrictModel):
@@ -352,7 +352,10 @@ class WallsSection(StrictModel):
     layers: Annotated[int, Field(ge=1, le=8)] = Field(
         3, description="wall particle layers of a tank; need layers * dx >= 2 h")
     tanks: list[Shape] = Field([], description="open-top tanks, inner rectangle (m)")
-    boxes: list[Shape] = Field([], description="rectangles filled with wall particles (m)")
+    boxes: list[BodyShape] = Field(
+        [], description="fixed bodies filled with wall particles (m): rectangles, polygons "
+        "and circles (concentric rings); a list is their union, circles carving the shapes "
+        "before them")
 
     @model_validator(mode="after")
     def _not_empty(self):

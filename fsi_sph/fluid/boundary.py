@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from fsi_sph.fluid import _kernels as K
-from fsi_sph.sph.interface import rigid_mode_terms
+from fsi_sph.sph.interface import pair_pressure_forces, rigid_mode_terms
 
 CARRIED_FULL = 0.9  # wall_pressure = "mirror": fluid gradient share taken as a full column
 
@@ -203,6 +203,38 @@ class BoundaryRows:
         u_w = np.where(np.isfinite(mean), 2.0 * ps.v_b - mean, ps.v_b)
         u_w[ps.n_fixed:ps.n_walls] = ps.v_b[ps.n_fixed:ps.n_walls]
         return u_w
+
+    def fluid_forces(self):
+        """Force of the fluid on every boundary row (N/m; walls, buffers, structures), from
+        the pressures of the last solve and the velocities of the step: the pressure pair
+        term of the interface [F 46-47] (:func:`~fsi_sph.sph.interface.pair_pressure_forces`,
+        the coupling's own term with its pair weights) plus the reaction to the viscous
+        term the fluid felt from the row [F 11-12]: the Morris pair sum of
+        :func:`~fsi_sph.fluid._kernels.predict_velocity` gathered on the boundary row, with
+        the row's velocity as the viscous term saw it (the no-slip mirror of a through-flow),
+        times the row's mass ``rho V_w`` (equal volumes: action = reaction pair by pair)."""
+        ps = self.ps
+        nf, nb = ps.nf, ps.nw
+        ps.sync()
+        xb, xf = ps.x_all[nf:nf + nb], ps.x_all[:nf]
+        start, j = ps.wf_start[:nb + 1], ps.wf_j[:ps.wf_start[nb]]
+        weights = (self.rows.interface_weights() if ps.ns
+                   else np.tile(np.eye(2), (nf, 1, 1)))
+        out = np.zeros((nb, 2))
+        pair_pressure_forces(xb, ps.p_all[nf:nf + nb], ps.vol_all[nf:nf + nb], xf,
+                             ps.p_all[:nf], ps.vol_all[:nf], start, j, ps.h, ps.kernel,
+                             ps.grad_scale, weights, False, out)
+        u_b = self.no_slip_velocity() if ps.open is not None else ps.v_b
+        x = np.vstack([xb, xf])  # boundary rows first, their fluid sources after them
+        v = np.vstack([u_b, ps.v_all[:nf]])
+        vol = np.concatenate([ps.vol_all[nf:nf + nb], ps.vol_all[:nf]])
+        nu = np.concatenate([np.full(nb, ps.nu0), ps.nu_all[:nf]])
+        acc = np.empty((nb, 2))
+        K.predict_velocity(x, v, vol, nu, start, j + nb, nb, ps.h, ps.kernel, ps.eta2,
+                           0.0, 0.0, 1.0, acc)
+        acc -= u_b
+        out += ps.rho * ps.vol_all[nf:nf + nb, None] * acc
+        return out
 
     def refresh_wall_pressure(self):
         """Incremental projection: the fixed walls' ``p^n`` re-extrapolated from the fluid's

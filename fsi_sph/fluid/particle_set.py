@@ -15,7 +15,7 @@ from fsi_sph.fluid import _kernels as K
 from fsi_sph.fluid.lattice import ETA, lattice_offsets, lattice_scales, lattice_sigma
 from fsi_sph.fluid.open_boundary import OpenBoundaries
 from fsi_sph.fluid.walls import Walls
-from fsi_sph.geometry import fill_shapes
+from fsi_sph.geometry import fill_shapes, in_shapes
 from fsi_sph.neighbors import find_neighbors
 from fsi_sph.particles import Body, FieldSpec
 from fsi_sph.sph.kernels import KERNELS, SUPPORT
@@ -61,6 +61,8 @@ class FluidParticles:
         if self.walls is not None:  # fluid particles on a wall site are dropped
             near_start, _ = find_neighbors(x, self.walls.body["x"], 0.5 * dx)
             x = x[np.diff(near_start) == 0]
+            # and those inside a round body, whose rings leave sites off the lattice free
+            x = x[~in_shapes(x, [s for s in walls_cfg.boxes if s.shape == "circle"])]
         for st in structures:  # and so are those on a site of a coupled structure
             near_start, _ = find_neighbors(x, st.body["x"], 0.5 * dx)
             x = x[np.diff(near_start) == 0]

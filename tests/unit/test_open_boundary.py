@@ -15,7 +15,7 @@ from fsi_sph.config import load_config
 from fsi_sph.expression import Expression
 from fsi_sph.output import read_restart
 from fsi_sph.simulation import Simulation
-from fsi_sph.sph.kernels import KERNELS
+from fsi_sph.sph.kernels import kernel_w
 
 CASE = Path(__file__).resolve().parents[2] / "cases" / "channel_poiseuille.toml"
 COARSE = ["case.dx=0.01", "case.t_end=0.5", "case.output_every=0.1"]
@@ -130,7 +130,7 @@ def test_no_slip_velocity_matches_numpy_oracle(channel):
     got = fl.boundary.no_slip_velocity()
     kind = fl.kernel
     xb, xf, vf = fl.x_all[fl.nf:fl.nf + fl.nw], fl.x_all[:fl.nf], fl.v_all[:fl.nf]
-    w = np.array([[KERNELS_W(kind, r, fl.h) for r in row]
+    w = np.array([[kernel_w(kind, r, fl.h) for r in row]
                   for row in np.linalg.norm(xb[:, None] - xf[None], axis=2)])
     sw = w.sum(axis=1)
     mean = (w @ vf) / np.where(sw > 0, sw, 1.0)[:, None]
@@ -138,17 +138,6 @@ def test_no_slip_velocity_matches_numpy_oracle(channel):
     ref[fl.n_fixed:fl.n_walls] = fl.v_b[fl.n_fixed:fl.n_walls]
     np.testing.assert_allclose(got, ref, rtol=1e-12, atol=1e-14)
 
-
-def KERNELS_W(kind, r, h):
-    """Cubic spline [F 5] (the case's kernel), dense numpy."""
-    assert kind == KERNELS["cubic_spline"]
-    q = r / h
-    a = 15.0 / (7.0 * np.pi * h * h)
-    if q < 1.0:
-        return a * (2.0 / 3.0 - q * q + 0.5 * q ** 3)
-    if q < 2.0:
-        return a * (2.0 - q) ** 3 / 6.0
-    return 0.0
 
 
 # ---------------------------------------------------------------- a run
