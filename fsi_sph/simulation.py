@@ -115,10 +115,11 @@ class Simulation:
         #    boundary particles of it (their positions, averaged velocity, acceleration)
         coupling = self.coupling
         if fluid is not None:
+            if fluid.open is not None:  # particles across the open lines; buffer velocities
+                # (first: the structures' rows are laid out after the new fluid count)
+                self._timed("open_boundaries", fluid.exchange_open_boundaries, self.t, dt)
             if coupling is not None:
                 coupling.before_fluid()
-            if fluid.open is not None:  # particles across the open lines; buffer velocities
-                self._timed("open_boundaries", fluid.exchange_open_boundaries, self.t, dt)
             self._timed("neighbours", fluid.update_neighbors)
             self._timed("free_surface", fluid.detect_free_surface)
             if fluid.shifting_enabled:

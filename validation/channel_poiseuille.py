@@ -30,7 +30,7 @@ import h5py
 import numpy as np
 
 from fsi_sph.output import read_probe
-from validation.common import record, run_case, write_outputs
+from validation.common import run_ladder, write_outputs
 
 CASE = Path(__file__).resolve().parents[1] / "cases" / "channel_poiseuille.toml"
 LADDER = [0.01, 0.005, 0.0025]   # m; H / dx = 10, 20, 40
@@ -83,14 +83,8 @@ def measure(sim, run_file):
 
 
 def validate(quick, data_dir, out_dir):
-    out_dir = Path(out_dir)
-    records = []
-    for dx in (QUICK if quick else LADDER):
-        label = f"dx={dx:g}"
-        sim, summary = run_case(CASE, [f"case.dx={dx}", "case.output_every=2.0"],
-                                out_dir / label)
-        errors, values = measure(sim, out_dir / label / "run.h5")
-        records.append(record(label, dx, summary, errors, values))
+    records = run_ladder(CASE, QUICK if quick else LADDER, out_dir, measure,
+                         ["case.output_every=2.0"])
     result = {"case": "channel_poiseuille",
               "reference": "analytic plane Poiseuille flow u = 6 U s (1 - s), "
                            "dp/dx = -12 rho nu U / H^2; mass in = mass out",

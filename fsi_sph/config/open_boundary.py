@@ -185,6 +185,18 @@ def _domain(cfg):
         los.append(np.subtract(s.origin, t))
         his.append(np.add(s.origin, s.size) + np.array([t, 1e30]))
     for s in cfg.walls.boxes:
-        los.append(np.asarray(s.origin, dtype=float))
-        his.append(np.add(s.origin, s.size))
+        lo, hi = _bounds(s)
+        los.append(lo)
+        his.append(hi)
     return np.min(los, axis=0), np.max(his, axis=0)
+
+
+def _bounds(shape):
+    """Bounding box of a rectangle, polygon or circle."""
+    kind = getattr(shape, "shape", "rectangle")
+    if kind == "circle":
+        return np.subtract(shape.centre, shape.radius), np.add(shape.centre, shape.radius)
+    if kind == "polygon":
+        v = np.asarray(shape.vertices, dtype=float)
+        return v.min(axis=0), v.max(axis=0)
+    return np.asarray(shape.origin, dtype=float), np.add(shape.origin, shape.size)

@@ -160,13 +160,89 @@ def test_channel_run_counts_mass_and_restarts_bit_identical(channel, tmp_path):
     assert steps[-1, cols.index("fluid_particles")] == full.fluid.nf
     assert len(counts) > 1  # snapshots of different sizes
 
-    case = channel
-    sets = sum((["--set", s] for s in COARSE), [])
+    assert_restart_matches(channel, COARSE, 60, full, tmp_path)
+
+
+def assert_restart_matches(case, over, steps, full, tmp_path):
+    """Run ``case`` for ``steps`` steps by the CLI, restart it from its file to the end:
+    every body's arrays equal those of the uninterrupted run ``full``, bit for bit."""
+    sets = sum((["--set", s] for s in over), [])
     assert main(["run", str(case), *sets, "--out", str(tmp_path / "part"), "--max-steps",
-                 "60", "--no-progress"]) == 0
+                 str(steps), "--no-progress"]) == 0
     part = tmp_path / "part" / "run.h5"
     assert main(["run", "--restart", str(part), "--no-progress"]) == 0
     clock, state = read_restart(part)
     assert clock["step"] == full.n_steps
-    for k, v in full.fluid.body.arrays.items():
-        np.testing.assert_array_equal(state["fluid"][k], v, err_msg=k)
+    for name, obj in full.bodies().items():
+        for k, v in obj.body.arrays.items():
+            np.testing.assert_array_equal(state[name][k], v, err_msg=f"{name}.{k}")
+
+
+def test_guard_bound_grows_with_the_inflow_supply():
+    """The energy bound is the initial energy's times the factor plus the energy the inflows
+    can bring (:meth:`IncompressibleFluid.energy_supply`)."""
+    from fsi_sph.config.scene import GuardSection
+    from fsi_sph.errors import SimulationError
+    from fsi_sph.guard import Guard
+    from fsi_sph.particles import Body, FieldSpec
+
+    class Moving:
+        def __init__(self, v, supply):
+            self.body = Body("b", "fluid", 1)
+            self.body.allocate((FieldSpec("x", (2,)), FieldSpec("v", (2,)), FieldSpec("m")))
+            self.body["m"][:] = 1.0
+            self.body["v"][:] = v
+            self.supply = supply
+
+        def energy_supply(self):
+            return self.supply
+
+    obj = Moving((1.0, 0.0), 0.0)
+    guard = Guard(GuardSection(energy_factor=2.0), {"b": obj}, (0.0, 0.0))
+    obj.body["v"][:] = (3.0, 0.0)  # 4.5 J/m against a bound of 2 x 0.5
+    with pytest.raises(SimulationError, match="kinetic energy"):
+        guard.check(0.0, 0, {"b": obj})
+    obj.supply = 2.0  # the inflow may bring 2 J/m: bound 1 + 2 x 2 = 5
+    guard.check(0.0, 0, {"b": obj})
+
+
+POST = """
+[fluid]
+pressure_gradient = "interface_conservative"
+
+[solid.post]
+material = { model = "neo_hookean", rho0 = 2000.0, E = 2.0e5, nu = 0.3 }
+blocks = [{ origin = [0.2, -0.02], size = [0.02, 0.06] }]
+clamp = [{ origin = [0.2, -0.02], size = [0.02, 0.02] }]
+
+[coupling]
+structures = ["post"]
+
+[[probes]]
+name = "post_force"
+kind = "force"
+body = "post"
+"""
+
+
+def test_open_boundaries_with_a_coupled_structure_restart_bit_identical(channel, tmp_path):
+    """An elastic post in the channel: the structure rows stay the tail of the stacked
+    arrays while the fluid count changes, the force probe reads them, and a restart ends
+    where an uninterrupted run ends."""
+    text = channel.read_text().replace("[fluid]\n", POST.split("\n[solid")[0].strip() + "\n", 1)
+    text = text.replace('pressure_gradient = "interface_conservative"\n', "")
+    text = text.replace("[fluid]\n", '[fluid]\npressure_gradient = "interface_conservative"\n')
+    text += "\n[solid" + POST.split("\n[solid")[1]
+    case = tmp_path / "post.toml"
+    case.write_text(text)
+    over = ["case.dx=0.01", "case.t_end=0.3", "case.output_every=0.1"]
+    full = Simulation(load_config(case, over))
+    nf0 = full.fluid.nf
+    full.run(out_dir=tmp_path / "full", progress=False)
+    fl = full.fluid
+    assert fl.nf != nf0
+    post = full.structures["post"].body["x"]
+    full.coupling.before_fluid()  # (the structure rows take the positions at a step's start)
+    np.testing.assert_array_equal(fl.x_all[fl.nf + fl.n_walls:], post)
+    assert np.isfinite(full.probes[1].sample()).all()
+    assert_restart_matches(case, over, 40, full, tmp_path)
