@@ -69,9 +69,45 @@ def fill_polygon(vertices, dx):
     return pts
 
 
+def fill_circle(centre, radius, dx):
+    """Concentric rings of particles filling a disk: ring ``k`` at radius
+    ``r_k = radius - (k + 1/2) dx`` holds ``round(2 pi r_k / dx)`` particles evenly spaced
+    (each ring turned by half a spacing against the last), and a ring whose radius falls
+    below ``dx / 2`` is one particle at the centre. The outer ring lies half a spacing inside
+    the surface, as a lattice's outer row does, and the particles' count matches the area
+    (``pi radius^2 / dx^2`` within a few particles).
+
+    >>> fill_circle((0.0, 0.0), 0.05, 0.01).shape  # pi r^2 / dx^2 = 78.5
+    (78, 2)
+    """
+    pts = []
+    k = 0
+    while True:
+        r = radius - (k + 0.5) * dx
+        if r < 0.5 * dx:
+            if radius - k * dx > 0.0:
+                pts.append(np.array([centre], dtype=np.float64))
+            break
+        n = max(int(round(2.0 * np.pi * r / dx)), 1)
+        phi = (np.arange(n) + 0.5 * (k % 2)) * 2.0 * np.pi / n
+        pts.append(np.column_stack([centre[0] + r * np.cos(phi), centre[1] + r * np.sin(phi)]))
+        k += 1
+    if not pts:
+        raise ValueError(f"circle of radius {radius} holds no particle at dx = {dx}")
+    return np.concatenate(pts, axis=0)
+
+
+def in_circle(x, centre, radius):
+    """Mask of the points of ``x`` inside the closed disk."""
+    return np.hypot(x[:, 0] - centre[0], x[:, 1] - centre[1]) <= radius
+
+
 def _fill(shape, dx):
-    if getattr(shape, "shape", "rectangle") == "polygon":
+    kind = getattr(shape, "shape", "rectangle")
+    if kind == "polygon":
         return fill_polygon(shape.vertices, dx)
+    if kind == "circle":
+        return fill_circle(shape.centre, shape.radius, dx)
     return fill_rectangle(shape.origin, shape.size, dx)
 
 
@@ -85,6 +121,7 @@ def fill_shapes(shapes, dx, key="blocks"):
             pts.append(_fill(s, dx))
         except ValueError as e:
             raise ConfigError(f"{key}[{k}]: {e}; make it larger or lower case.dx") from None
+    pts = carve_circles(shapes, pts)
     x = np.concatenate(pts, axis=0)
     if len(pts) > 1:
         key = np.round(x / (1e-6 * dx)).astype(np.int64)
@@ -93,12 +130,29 @@ def fill_shapes(shapes, dx, key="blocks"):
     return x
 
 
+def carve_circles(shapes, pts):
+    """A union with circles: a circle's rings are not on the lattice of the shapes beside
+    it, so every other shape of the union loses its points inside a circle (no two particles
+    on one site; a union without a circle is left as it is)."""
+    out = list(pts)
+    for k, s in enumerate(shapes):
+        if getattr(s, "shape", None) != "circle":
+            continue
+        for m in range(len(out)):
+            if m != k:
+                out[m] = out[m][~in_circle(out[m], s.centre, s.radius)]
+    return out
+
+
 def in_shapes(x, shapes):
     """Mask of the points inside any of ``shapes``."""
     mask = np.zeros(len(x), dtype=bool)
     for s in shapes:
-        if getattr(s, "shape", "rectangle") == "polygon":
+        kind = getattr(s, "shape", "rectangle")
+        if kind == "polygon":
             mask |= in_polygon(x, s.vertices)
+        elif kind == "circle":
+            mask |= in_circle(x, s.centre, s.radius)
         else:
             mask |= in_rectangle(x, s.origin, s.size)
     return mask

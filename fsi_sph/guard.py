@@ -69,7 +69,9 @@ class Guard:
                     f"(of {int(out.sum())}) at x = {x[i].tolist()}; domain "
                     f"{self.lo.tolist()} .. {self.hi.tolist()} (set guard.domain to change it)")
         ke = sum(_energy(o)[0] for o in bodies.values())
-        if ke > self.energy_bound:
+        # open boundaries bring energy in: the bound grows by the inflows' supply
+        supply = sum(o.energy_supply() for o in bodies.values() if hasattr(o, "energy_supply"))
+        if ke > self.energy_bound + self.cfg.energy_factor * supply:
             name, o = max(bodies.items(), key=lambda kv: _energy(kv[1])[0])
             v2 = np.einsum("ij,ij->i", o.body["v"], o.body["v"])
             i = int(np.argmax(v2))

@@ -35,6 +35,14 @@ class Body:
             if spec.name not in self.arrays:
                 self.arrays[spec.name] = np.full((self.n, *spec.shape), spec.init, dtype=spec.dtype)
 
+    def select(self, keep, n_add=0):
+        """Keep the rows ``keep`` (a mask) of every field and append ``n_add`` zero rows
+        (a changing particle count: open boundaries)."""
+        for k, a in self.arrays.items():
+            tail = np.zeros((n_add, *a.shape[1:]), dtype=a.dtype)
+            self.arrays[k] = np.ascontiguousarray(np.concatenate([a[keep], tail]))
+        self.n = int(np.count_nonzero(keep)) + n_add
+
     def __getitem__(self, name):
         return self.arrays[name]
 

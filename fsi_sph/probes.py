@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from fsi_sph.geometry import in_shapes
+
 
 class PointDisplacement:
     """Displacement and position of the particle nearest to ``at`` in the reference
@@ -82,8 +84,37 @@ class FluidStats:
         return [self.fluid.max_speed(), self.fluid.kinetic_energy()]
 
 
+class BodyForce:
+    """The fluid's force on the fixed walls or a coupled structure, or on the part of it
+    inside ``region`` (its particles' reference positions), from the same pair terms the
+    coupling uses (:meth:`BoundaryRows.fluid_forces`: pressure [F 46-47] and viscous
+    [F 11-12]). Columns: ``fx, fy`` (N/m): drag and lift for a flow along x."""
+
+    columns = ("fx", "fy")
+
+    def __init__(self, name, fluid, body, region):
+        self.name = name
+        self.fluid = fluid
+        if body == "walls":
+            x0 = fluid.walls.body["x"]
+            self.offset = lambda: 0
+        else:
+            names = [s.name for s in fluid.structures]
+            k = names.index(body)
+            x0 = fluid.structures[k].body["x0"]
+            before = sum(s.body.n for s in fluid.structures[:k])
+            self.offset = lambda: fluid.n_walls + before
+        self.rows = np.flatnonzero(in_shapes(x0, region)) if region else np.arange(len(x0))
+
+    def sample(self):
+        f = self.fluid.boundary.fluid_forces()
+        return [float(v) for v in f[self.offset() + self.rows].sum(axis=0)]
+
+
 def make_probe(cfg, bodies):
     """Build the probe a ``Probe`` config entry asks for (bodies by name)."""
+    if cfg.kind == "force":
+        return BodyForce(cfg.name, bodies["fluid"], cfg.body, cfg.region)
     body = bodies[cfg.body]
     if cfg.kind == "point_displacement":
         return PointDisplacement(cfg.name, body, cfg.at)

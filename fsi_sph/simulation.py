@@ -132,6 +132,9 @@ class Simulation:
         #    boundary particles of it (their positions, averaged velocity, acceleration)
         coupling = self.coupling
         if fluid is not None:
+            if fluid.open is not None:  # particles across the open lines; buffer velocities
+                # (first: the structures' rows are laid out after the new fluid count)
+                self._timed("open_boundaries", fluid.exchange_open_boundaries, self.t, dt)
             if coupling is not None:
                 coupling.before_fluid()
             self._timed("neighbours", fluid.update_neighbors)
@@ -199,6 +202,8 @@ class Simulation:
         if set(state) != set(bodies):
             raise SimulationError(f"restart: the saved bodies {sorted(state)} are not the "
                                   f"scene's {sorted(bodies)}")
+        for key, arrays in extra.items():  # first: the fluid's count may change with it
+            bodies[key.removesuffix(".extra")].load_extra_state(arrays)
         for name, arrays in state.items():
             b = bodies[name].body
             for k, v in arrays.items():
@@ -207,8 +212,6 @@ class Simulation:
                         f"restart: body {name!r} field {k!r} has shape {v.shape} in the file "
                         f"but {b.arrays[k].shape if k in b.arrays else 'none'} in the scene")
                 b.arrays[k][...] = v
-        for key, arrays in extra.items():
-            bodies[key.removesuffix(".extra")].load_extra_state(arrays)
         self.t = float(clock["t"])
         self.n_steps = int(clock["step"])
         self.particle_steps = int(clock["particle_steps"])

@@ -12,6 +12,8 @@ class StepTable:
         self.coupling = coupling
         # viscosity law / implicit step: every dt limit [F 48]
         self.dt_limits = fluid is not None and fluid.viscous is not None
+        # open boundaries: the fluid's count and the mass that entered and left per step
+        self.open = fluid is not None and fluid.open is not None
 
     @property
     def columns(self):
@@ -24,6 +26,8 @@ class StepTable:
                      "viscous_iterations", "viscous_residual", "viscous_fallback")
         if self.coupling is not None:
             cols += ("power_on_structures", "power_on_fluid")
+        if self.open:
+            cols += ("fluid_particles", "mass_in", "mass_out")
         return cols
 
     def row(self, t, dt, n_sub):
@@ -39,4 +43,6 @@ class StepTable:
                     vs.iterations, vs.residual, float(vs.fallback)]
         if self.coupling is not None:
             row += [self.coupling.power_structure, self.coupling.power_fluid]
+        if self.open:
+            row += [self.fluid.nf, *self.fluid.mass_flux()]
         return row

@@ -62,6 +62,19 @@ def run_case(case, overrides=(), out_dir=None, max_steps=None, progress=False):
     return sim, summary
 
 
+def run_ladder(case, dxs, out_dir, measure, overrides=()):
+    """One record per resolution ``dx`` of ``dxs``: the case run with ``case.dx = dx`` (and
+    ``overrides``) into ``out_dir/dx=<dx>``, measured by ``measure(sim, run_file) ->
+    (errors, values)``."""
+    records = []
+    for dx in dxs:
+        label = f"dx={dx:g}"
+        sim, summary = run_case(case, [f"case.dx={dx}", *overrides], Path(out_dir) / label)
+        errors, values = measure(sim, Path(out_dir) / label / "run.h5")
+        records.append(make_record(label, dx, summary, errors, values))
+    return records
+
+
 def make_record(label, dx, summary, errors, values=None) -> dict:
     """One entry of the shared record format (``summary`` from :func:`run_case`)."""
     return {"label": label, "dx": float(dx), "n_particles": int(summary["n_particles"]),

@@ -8,7 +8,8 @@ from typing import Annotated, Literal
 from pydantic import Field, model_validator
 
 from fsi_sph.config.base import NonNegative, Positive, StrictModel, Vec2
-from fsi_sph.config.scene import BlockShape, Shape
+from fsi_sph.config.open_boundary import Inflow, Outflow
+from fsi_sph.config.scene import BlockShape, BodyShape, Shape
 
 
 class MuIParameters(StrictModel):
@@ -303,6 +304,12 @@ class FluidSection(StrictModel):
     periodic_x: Vec2 | None = Field(
         None, description="[x_min, x_max] (m): the fluid (and its walls) is periodic in x "
         "with period x_max - x_min (fsi_sph/fluid/periodic.py); absent: not periodic")
+    inflow: list[Inflow] = Field(
+        [], description="open inflow lines with a prescribed velocity profile, each a buffer "
+        "of particles that become fluid as they cross it (fsi_sph/fluid/open_boundary.py)")
+    outflow: list[Outflow] = Field(
+        [], description="open outflow lines at a given pressure, each a buffer that takes "
+        "the fluid particles crossing it and deletes them one kernel support further")
 
     @model_validator(mode="after")
     def _fluid_options(self):
@@ -318,6 +325,12 @@ class FluidSection(StrictModel):
                 "umbrella scan makes a waterline particle against a side wall a surface "
                 "particle, whose normal tilts away from the wall, and the offset's pressure "
                 "extrapolated along it made a tank at rest drift (5e-3 m/s in 0.3 s)")
+        if (self.inflow or self.outflow) and (self.projection != "standard"
+                                              or self.periodic_x is not None):
+            raise ValueError("fluid.inflow / fluid.outflow need projection = \"standard\" and "
+                             "no periodic_x (the incremental projection's carried pressure "
+                             "and the periodic images are not worked out for a changing "
+                             "particle count)")
         mu_i = self.material.mu_i
         if (self.surface_offset > 0.0 and mu_i is not None
                 and mu_i.pressure_offset == "half_spacing"):
@@ -340,9 +353,10 @@ class WallsSection(StrictModel):
     layers: Annotated[int, Field(ge=1, le=8)] = Field(
         3, description="wall particle layers of a tank; need layers * dx >= 2 h")
     tanks: list[Shape] = Field([], description="open-top tanks, inner rectangle (m)")
-    boxes: list[BlockShape] = Field([], description="rectangles {origin, size} or polygons "
-                                    "{shape = \"polygon\", vertices} filled with wall "
-                                    "particles (m)")
+    boxes: list[BodyShape] = Field(
+        [], description="fixed bodies filled with wall particles (m): rectangles, polygons "
+        "and circles (concentric rings); a list is their union, circles carving the shapes "
+        "before them")
 
     @model_validator(mode="after")
     def _not_empty(self):

@@ -155,7 +155,7 @@ def _format_errors(err: ValidationError, label: str, data: dict) -> str:
     lines = []
     for e in err.errors():
         loc = tuple(p for p in e["loc"] if p not in ("cantilever_mode", "uniform", "Shape",
-                                                      "Polygon"))
+                                                      "Polygon", "Circle"))
         path = ".".join(str(p) if not isinstance(p, int) else f"[{p}]" for p in loc)
         path = path.replace(".[", "[")
         msg = e["msg"]

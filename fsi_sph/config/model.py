@@ -10,7 +10,8 @@ from pydantic import Field, PrivateAttr, model_validator
 
 from fsi_sph.config.base import Name, StrictModel, Vec2
 from fsi_sph.config.fluid import FluidSection, WallsSection
-from fsi_sph.config.scene import CaseSection, GuardSection, SphSection
+from fsi_sph.config.open_boundary import check_open_boundaries
+from fsi_sph.config.scene import BodyShape, CaseSection, GuardSection, SphSection
 from fsi_sph.config.soil import Boundary, SoilBody
 from fsi_sph.config.solid import SolidBody
 
@@ -53,16 +54,20 @@ class Probe(StrictModel):
 
     name: Name
     kind: Literal["point_displacement", "energy", "pressure", "surge_front",
-                  "fluid_stats"] = Field(
+                  "fluid_stats", "force"] = Field(
         description="point_displacement: the particle nearest to `at` in the reference "
         "configuration; energy: kinetic and strain energy of a body; pressure: fluid pressure "
         "at `at` (Shepard interpolation over fluid and wall particles); surge_front: largest "
         "x of the fluid particles with at least 3 fluid neighbours; fluid_stats: max speed and "
-        "kinetic energy of the fluid")
+        "kinetic energy of the fluid; force: the fluid's force (fx, fy; N/m) on `body` (the "
+        "fixed `walls` or a coupled solid), on its particles inside `region` if given")
     body: Name
     at: Vec2 | None = Field(None, description="position (m), for point_displacement and pressure")
     reference: list[ProbeReference] = Field([], description="reference curves drawn over "
                                             "the probe's plot")
+    region: list[BodyShape] = Field(
+        [], description="force probes: the named part of the body, its particles inside these "
+        "shapes (reference positions); empty = the whole body")
 
     @model_validator(mode="after")
     def _needs_at(self):
@@ -120,6 +125,7 @@ class Config(StrictModel):
                 and self.fluid.periodic_x is not None:
             raise ValueError("case.shaking with fluid.periodic_x is not supported (the periodic "
                              "images' wall body force is set once, at the start)")
+        check_open_boundaries(self)
         if self.walls is not None and self.fluid is None:
             raise ValueError("[walls] without [fluid]: walls only bound the fluid")
         for name, sec in self.solid.items():
@@ -155,7 +161,11 @@ class Config(StrictModel):
             self._check_structure_scheme()
         seen = set()
         for k, p in enumerate(self.probes):
-            if p.body not in bodies:
+            if p.kind == "force":
+                self._check_force_probe(k, p)
+            elif p.region:
+                raise ValueError(f"probes[{k}].region: only force probes take a region")
+            elif p.body not in bodies:
                 raise ValueError(f"probes[{k}].body = {p.body!r} names no body; "
                                  f"bodies are: {', '.join(sorted(bodies))}")
             if (p.kind in fluid_kinds) != (p.body == "fluid"):
@@ -165,6 +175,16 @@ class Config(StrictModel):
                 raise ValueError(f"probes[{k}].name = {p.name!r} is used twice")
             seen.add(p.name)
         return self
+
+    def _check_force_probe(self, k, p):
+        """A force probe reads the fluid's force on boundary rows: the walls or a coupled
+        solid."""
+        allowed = (["walls"] if self.walls is not None else []) + (
+            list(self.coupling.structures) if self.coupling is not None else [])
+        if self.fluid is None or p.body not in allowed:
+            raise ValueError(f"probes[{k}].body = {p.body!r}: a force probe needs a [fluid] "
+                             f"and names the walls or a coupled solid; allowed: "
+                             f"{', '.join(allowed) or 'none in this scene'}")
 
     def structure_scheme(self) -> str:
         """``coupling.structure_acceleration`` with ``auto`` resolved: ``implicit`` when every

@@ -27,8 +27,19 @@ class Polygon(StrictModel):
         description="corner points [x, y] (m), at least 3, in order around the polygon")
 
 
+class Circle(StrictModel):
+    """A disk of radius ``radius`` about ``centre`` (m), filled with concentric rings of
+    particles (fsi_sph/geometry.py ``fill_circle``), so that its surface is round."""
+
+    shape: Literal["circle"] = Field(description="primitive kind")
+    centre: Vec2 = Field(description="centre [x, y] (m)")
+    radius: Positive = Field(description="radius (m)")
+
+
 SoilShape = Annotated[Shape | Polygon, Field(union_mode="left_to_right")]
-#: a rectangle or a polygon: the shapes that fill a body (fluid, wall, solid or soil)
+BodyShape = Annotated[Shape | Polygon | Circle, Field(union_mode="left_to_right")]
+#: a rectangle or a polygon: the shapes that fill a fluid, solid or soil body (wall boxes take
+#: circles too, BodyShape)
 BlockShape = SoilShape
 
 

@@ -144,6 +144,8 @@ class FsiCoupling:
         from fsi_sph.neighbors import transpose_csr
 
         fl = self.fluid
+        if len(self.on_fluid) != fl.nf:  # open boundaries change the fluid's count
+            self.on_fluid = np.zeros((fl.nf, 2))
         nb0 = fl.nf + fl.n_walls
         x_s = fl.x_all[nb0:]
         x_f = fl.x_all[:fl.nf]

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from fsi_sph.fluid import _kernels as K
-from fsi_sph.sph.interface import rigid_mode_terms
+from fsi_sph.sph.interface import pair_pressure_forces, rigid_mode_terms
 
 CARRIED_FULL = 0.9  # wall_pressure = "mirror": fluid gradient share taken as a full column
 
@@ -179,6 +179,63 @@ class BoundaryRows:
                                       self.rows.no_rows, self.rows.no_rg, gp)
         return gp
 
+    def fluid_average(self, fields, n_rows):
+        """Shepard averages ``<f>_w = sum_f f_f W_wf / sum_f W_wf`` over the fluid
+        neighbours of the first ``n_rows`` boundary rows, one column per stacked field
+        (NaN without fluid neighbours)."""
+        ps = self.ps
+        xw = ps.x_all[ps.nf:ps.nf + n_rows]
+        mean = np.empty((n_rows, len(fields)))
+        for k, field in enumerate(fields):
+            K.shepard_at(xw, ps.x_all, np.ascontiguousarray(field), ps.wf_start,
+                         ps.wf_j, ps.h, ps.kernel, mean[:, k])
+        return mean
+
+    def no_slip_velocity(self):
+        """Velocity of the boundary rows in the viscous term with a no-slip surface
+        (Adami et al. 2012, J. Comput. Phys. 231:7057, eq. 23): ``u_w = 2 v_w - <u_f>_w``,
+        the fluid's velocity mirrored about the wall's own ``v_w`` so that it vanishes
+        relative to the wall at the wall's surface and not a few layers inside it; ``v_w``
+        where no fluid is near, and the buffers of the open boundaries at their own
+        (prescribed or extrapolated) velocity."""
+        ps = self.ps
+        mean = self.fluid_average((ps.v_all[:, 0], ps.v_all[:, 1]), ps.nw)
+        u_w = np.where(np.isfinite(mean), 2.0 * ps.v_b - mean, ps.v_b)
+        u_w[ps.n_fixed:ps.n_walls] = ps.v_b[ps.n_fixed:ps.n_walls]
+        return u_w
+
+    def fluid_forces(self):
+        """Force of the fluid on every boundary row (N/m; walls, buffers, structures), from
+        the pressures of the last solve and the velocities of the step: the pressure pair
+        term of the interface [F 46-47] (:func:`~fsi_sph.sph.interface.pair_pressure_forces`,
+        the coupling's own term with its pair weights) plus the reaction to the viscous
+        term the fluid felt from the row [F 11-12]: the Morris pair sum of
+        :func:`~fsi_sph.fluid._kernels.predict_velocity` gathered on the boundary row, with
+        the row's velocity as the viscous term saw it (the no-slip mirror of a through-flow),
+        times the row's mass ``rho V_w`` (equal volumes: action = reaction pair by pair)."""
+        ps = self.ps
+        nf, nb = ps.nf, ps.nw
+        ps.sync()
+        xb, xf = ps.x_all[nf:nf + nb], ps.x_all[:nf]
+        start, j = ps.wf_start[:nb + 1], ps.wf_j[:ps.wf_start[nb]]
+        weights = (self.rows.interface_weights() if ps.ns
+                   else np.tile(np.eye(2), (nf, 1, 1)))
+        out = np.zeros((nb, 2))
+        pair_pressure_forces(xb, ps.p_all[nf:nf + nb], ps.vol_all[nf:nf + nb], xf,
+                             ps.p_all[:nf], ps.vol_all[:nf], start, j, ps.h, ps.kernel,
+                             ps.grad_scale, weights, False, out)
+        u_b = self.no_slip_velocity() if ps.open is not None else ps.v_b
+        x = np.vstack([xb, xf])  # boundary rows first, their fluid sources after them
+        v = np.vstack([u_b, ps.v_all[:nf]])
+        vol = np.concatenate([ps.vol_all[nf:nf + nb], ps.vol_all[:nf]])
+        nu = np.concatenate([np.full(nb, ps.nu0), ps.nu_all[:nf]])
+        acc = np.empty((nb, 2))
+        K.predict_velocity(x, v, vol, nu, start, j + nb, nb, ps.h, ps.kernel, ps.eta2,
+                           0.0, 0.0, 1.0, acc)
+        acc -= u_b
+        out += ps.rho * ps.vol_all[nf:nf + nb, None] * acc
+        return out
+
     def refresh_wall_pressure(self):
         """Incremental projection: the fixed walls' ``p^n`` re-extrapolated from the fluid's
         ``p^n`` at the current positions by the standard wall row (Adami; ``ppe_fill``),
@@ -194,10 +251,7 @@ class BoundaryRows:
             return
         ps.sync()
         xw = ps.x_all[nf:nf + nwall]
-        mean = np.empty((nwall, 3))  # <p_f>, <x_f>, <y_f>
-        for k, field in enumerate((ps.p_all, ps.x_all[:, 0], ps.x_all[:, 1])):
-            K.shepard_at(xw, ps.x_all, np.ascontiguousarray(field), ps.wf_start,
-                         ps.wf_j, ps.h, ps.kernel, mean[:, k])
+        mean = self.fluid_average((ps.p_all, ps.x_all[:, 0], ps.x_all[:, 1]), nwall)
         rbar = xw - mean[:, 1:]
         gb = self.wall_body_force()[:nwall]
         pw = mean[:, 0] + ps.rho * np.einsum("ij,ij->i", gb, rbar)

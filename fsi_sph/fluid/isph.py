@@ -93,7 +93,8 @@ class IncompressibleFluid(FluidParticles):
             self.viscous = ViscousStep(self, self.rows, self.gradient, self.pressure,
                                        ViscosityLaw(cfg, dx, gravity))
         self.motion = Motion(self, self.rows, self.gradient, self.pressure,
-                             self.kinematic_guard, free_slip=self.viscous is None)
+                             self.kinematic_guard, free_slip=self.viscous is None,
+                             boundary=self.boundary)
         self.dt_limits = {}
         if cfg.periodic_x is not None:
             from fsi_sph.fluid.periodic import Periodic
@@ -120,12 +121,68 @@ class IncompressibleFluid(FluidParticles):
         """The kinematic guard's force on the structure particles (N/m each)."""
         return self.kinematic_guard.force
 
+    # ------------------------------------------------------------------ open boundaries
+    def exchange_open_boundaries(self, t, dt):
+        """Open boundaries (:mod:`~fsi_sph.fluid.open_boundary`), at the start of the step
+        ``t -> t + dt``: the particles that crossed an open line become fluid or buffer
+        particles (the fluid count changes, and with it the stacked layout), then the
+        buffers get their velocities for the step."""
+        op = self.open
+        lo = self.nf + self.n_fixed
+        p_buffer = self.p_all[lo:lo + op.n].copy()
+        keep, new_x, new_v, new_p, p_buffer = op.exchange(
+            self.body["x"], self.body["v"], p_buffer, self.rho * self.dx * self.dx)
+        if len(new_x) or not keep.all() or len(p_buffer) != self.n_walls - self.n_fixed:
+            self.relayout(keep, new_x, new_v, new_p, p_buffer)
+            self.resized()
+        op.set_velocities(t, dt, self.body["x"], self.body["v"], self.kernel)
+        self.buffer_rows()
+
+    def buffer_rows(self):
+        """The buffers' positions, velocities and body force in the stacked arrays."""
+        lo, hi = self.nf + self.n_fixed, self.nf + self.n_walls
+        self.x_all[lo:hi] = self.open.positions()
+        self.v_all[lo:hi] = self.open.velocities()
+        self.v_b[self.n_fixed:self.n_walls] = self.open.velocities()
+        self.g_b[self.n_fixed:self.n_walls] = self.open.body_force(self.gravity)
+
+    def resized(self):
+        """A new fluid particle count: the parts' per-row work arrays follow it."""
+        self.motion.resize()
+        self.pressure.resize()
+        self.kinematic_guard.resize()
+
+    def energy_supply(self):
+        """Kinetic energy the inflows can bring (J/m): the fluid's mass at the largest
+        inflow speed so far (the guard's bound grows with it)."""
+        if self.open is None:
+            return 0.0
+        return 0.5 * float(np.sum(self.body["m"])) * self.open.u_max ** 2
+
+    def mass_flux(self):
+        """Mass (kg/m) that entered and left through the open lines at the last exchange."""
+        return self.open.mass_in, self.open.mass_out
+
     # ------------------------------------------------------------------ state
     def extra_state(self):
-        """State outside the fluid body's arrays (:meth:`PressureSolve.extra_state`)."""
-        return self.pressure.extra_state()
+        """State outside the fluid body's arrays (:meth:`PressureSolve.extra_state`; the
+        open boundaries' buffers)."""
+        state = self.pressure.extra_state()
+        if self.open is not None:
+            state.update({f"open.{k}": v for k, v in self.open.state().items()})
+            state["open.nf"] = np.array(self.nf)
+        return state
 
     def load_extra_state(self, state):
+        """Put the extra state back; with open boundaries first the buffers and the fluid
+        count (the body's arrays are then copied into a body of the saved size)."""
+        if self.open is not None:
+            self.open.load_state({k[5:]: v for k, v in state.items() if k.startswith("open.")})
+            nf = int(state["open.nf"])
+            self.relayout(np.zeros(self.nf, dtype=bool), np.zeros((nf, 2)), np.zeros((nf, 2)),
+                          np.zeros(nf), np.zeros(self.open.n))
+            self.resized()
+            self.buffer_rows()
         self.pressure.load_extra_state(state)
 
     def at_snapshot(self):
@@ -212,6 +269,9 @@ class IncompressibleFluid(FluidParticles):
     def correct(self, dt, interface_force=None):
         """``u^{n+1}`` [F 18] and ``r^{n+1}`` [F 19] (:meth:`Motion.correct`)."""
         self.motion.correct(dt, interface_force)
+        if self.open is not None:
+            self.open.move(dt)
+            self.buffer_rows()
 
 def warm_up(kind):
     """Compile (or load from the cache) every loop on a tiny problem, so that JIT time is

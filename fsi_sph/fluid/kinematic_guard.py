@@ -20,6 +20,14 @@ class KinematicGuard:
         self.scratch = np.zeros((ps.nf, 2))
         self.zero_b = np.zeros((ps.nw, 2))  # (grown when periodic images are added)
 
+    def resize(self):
+        """A new fluid particle count (open boundaries): the work arrays follow."""
+        ps = self.ps
+        self.dv = np.zeros((ps.nf, 2))
+        self.row = np.zeros(ps.nf, dtype=np.int64)
+        self.scratch = np.zeros((ps.nf, 2))
+        self.zero_b = np.zeros((ps.nw, 2))
+
     def ranges(self):
         """The kinematic guard's source ranges and distances: the fixed walls (and their
         periodic images) from dx/2, the coupled structures from 2h/3, where the cubic

@@ -14,6 +14,7 @@ import numpy as np
 
 from fsi_sph.fluid import _kernels as K
 from fsi_sph.fluid.lattice import ETA, lattice_offsets, lattice_scales, lattice_sigma
+from fsi_sph.fluid.open_boundary import OpenBoundaries
 from fsi_sph.fluid.walls import Walls
 from fsi_sph.geometry import fill_shapes, in_shapes
 from fsi_sph.neighbors import find_neighbors
@@ -76,8 +77,14 @@ class FluidParticles:
         if self.walls is not None:  # fluid particles on a wall site are dropped
             near_start, _ = find_neighbors(x, self.walls.body["x"], 0.5 * dx)
             x = x[np.diff(near_start) == 0]
+            # and those inside a round body, whose rings leave sites off the lattice free
+            x = x[~in_shapes(x, [s for s in walls_cfg.boxes if s.shape == "circle"])]
         for st in structures:  # and so are those on a site of, or inside, a coupled structure
             x = _carve(x, st, dx)
+        self.open = None  # the open boundaries' buffers (open_boundary.py)
+        if cfg.inflow or cfg.outflow:
+            self.open = OpenBoundaries(cfg, dx, self.h)
+            x = x[~self.open.inside(x)]
         if cfg.jitter > 0.0:  # one realization of the initial lattice (fluid.jitter)
             rng = np.random.default_rng(cfg.jitter_seed)
             x = x + cfg.jitter * dx * rng.uniform(-1.0, 1.0, size=x.shape)
@@ -93,7 +100,9 @@ class FluidParticles:
         self.nf = b.n
         # boundary particles: the fixed walls, then the particles of the coupled structures
         # (moving boundaries, PHYSICS.md §5); the loops see them all as "wall" rows
-        self.n_walls = self.walls.body.n if self.walls is not None else 0
+        self.n_fixed = self.walls.body.n if self.walls is not None else 0
+        # the boundary rows that are not structures: the fixed walls, then the buffers
+        self.n_walls = self.n_fixed + (self.open.n if self.open is not None else 0)
         self.structures = list(structures)  # ElasticBody objects, fixed order
         self.ns = sum(s.body.n for s in self.structures)
         self.nw = self.n_walls + self.ns
@@ -115,8 +124,10 @@ class FluidParticles:
         self.wall_n = np.zeros((self.nw, 2))
         if self.walls is not None:
             xw = self.walls.body["x"]
-            self.x_all[self.nf:self.nf + self.n_walls] = xw
-            self.wall_n[:self.n_walls] = self.fixed_wall_normals(xw)
+            self.x_all[self.nf:self.nf + self.n_fixed] = xw
+            self.wall_n[:self.n_fixed] = self.fixed_wall_normals(xw)
+        if self.open is not None:
+            self.x_all[self.nf + self.n_fixed:self.nf + self.n_walls] = self.open.positions()
         self.grad_scale, self.lap_scale, self.diag_ref = lattice_scales(dx, self.h, self.kernel)
         self.sigma0 = lattice_sigma(dx, self.h, self.kernel)
         self.n_full = len(lattice_offsets(dx, self.h))
@@ -133,6 +144,59 @@ class FluidParticles:
     @property
     def n(self):
         return self.nf
+
+    def relayout(self, keep, new_x, new_v, new_p, p_buffer):
+        """A new fluid particle count (open boundaries, restart): the fluid rows ``keep``
+        and the new particles ``new_x, new_v, new_p`` appended; the buffers as ``self.open``
+        now holds them, with the pressures ``p_buffer``. The stacked arrays are laid out
+        anew, ``[fluid | walls | buffers | structures]``, the walls' and structures' rows
+        carried over; the per-fluid-row work arrays are reallocated (each step fills them)."""
+        b = self.body
+        n_add = len(new_x)
+        b.select(keep, n_add)
+        new = slice(b.n - n_add, b.n)
+        b["x"][new] = new_x
+        b["v"][new] = new_v
+        b["p"][new] = new_p
+        b["vol"][new] = self.dx * self.dx
+        b["m"][new] = self.rho * self.dx * self.dx
+        b["nu"][new] = self.nu0
+        self.restack(p_buffer)
+
+    def restack(self, p_buffer):
+        """The stacked arrays for the current fluid body and buffers (:meth:`relayout`)."""
+        nf_old = self.nf
+        tail = self.n_walls + self.ns  # (old) end of the structure rows
+        n_open = self.open.n
+        fixed = slice(nf_old, nf_old + self.n_fixed)
+        structures = slice(nf_old + self.n_walls, nf_old + tail)
+        b = self.body
+        self.nf = nf = b.n
+        gb = self.open.body_force(self.gravity)
+
+        def stack(a, fluid_rows, open_rows, offset):
+            head = a[fixed.start - offset:fixed.stop - offset]
+            end = a[structures.start - offset:structures.stop - offset]
+            return np.ascontiguousarray(np.concatenate([fluid_rows, head, open_rows, end]))
+
+        empty = np.zeros((0, 2))
+        self.x_all = stack(self.x_all, b["x"], self.open.positions(), 0)
+        self.v_all = stack(self.v_all, b["v"], self.open.velocities(), 0)
+        self.p_all = stack(self.p_all, b["p"], p_buffer, 0)
+        self.vol_all = stack(self.vol_all, b["vol"], np.full(n_open, self.dx * self.dx), 0)
+        self.nu_all = stack(self.nu_all, b["nu"], np.full(n_open, self.nu0), 0)
+        self.v_b = stack(self.v_b, empty, self.open.velocities(), nf_old)
+        self.g_b = stack(self.g_b, empty, gb, nf_old)
+        self.implicit = stack(self.implicit, np.zeros(0), np.zeros(n_open), nf_old)
+        self.wall_n = stack(self.wall_n, empty, np.zeros((n_open, 2)), nf_old)
+        self.n_walls = self.n_fixed + n_open
+        self.nw = self.n_walls + self.ns
+        self.v_old = np.zeros((nf, 2))
+        self.v_star = np.zeros((nf, 2))
+        self.grad_p = np.zeros((nf, 2))
+        self.grad_v = np.zeros((nf, 2, 2))
+        self.L = np.zeros((nf, 2, 2))
+        self._L_key, self._L_x = None, np.empty((0, 2))
 
     def fixed_wall_normals(self, xw):
         """Outward normals of the fixed wall particles over the rigid boundary: the walls and

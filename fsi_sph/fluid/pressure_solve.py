@@ -34,6 +34,11 @@ class PressureSolve:
         self.div = np.zeros(ps.nf)
         self.increments = PressureIncrements(ps, rows, gradient, self.ppe)
 
+    def resize(self):
+        """A new fluid particle count (open boundaries): the per-row arrays follow."""
+        self.p_surface = np.zeros(self.ps.nf)
+        self.div = np.zeros(self.ps.nf)
+
     def begin_step(self, dt):
         """The pressure's part of the start of a step (before the predictor): ``p^0`` before
         the first incremental step, this step's projection, and with the incremental one
@@ -107,6 +112,8 @@ class PressureSolve:
                           self.rows.interface_weights() if ps.ns else None)
         if ps.cfg.surface_offset > 0.0:
             self.offset_surface_rows(A, rhs, alpha)
+        if ps.open is not None:  # the outflow buffers: p = p_out
+            ps.open.hold_pressure(A, rhs, ps.nf + ps.n_fixed, ps.diag_ref)
         if self.incremental_step:
             p, stats = self.increments.solve(A, rhs, source, alpha, relax, t0,
                                              self.p_surface)
@@ -125,7 +132,7 @@ class PressureSolve:
         ps.p_all[:] = p
         b["p"][:] = p[:ps.nf]
         if ps.walls is not None:
-            ps.walls.body["p"][:] = p[ps.nf:ps.nf + ps.n_walls]
+            ps.walls.body["p"][:] = p[ps.nf:ps.nf + ps.n_fixed]
         self.last_stats = stats
         self.A, self.rhs = A, rhs
         return stats
@@ -233,7 +240,7 @@ class PressureSolve:
         if "p_known" in state:
             ps.p_known = bool(state["p_known"])
         if ps.walls is not None:
-            ps.walls.body["p"][:] = ps.p_all[ps.nf:ps.nf + ps.n_walls]
+            ps.walls.body["p"][:] = ps.p_all[ps.nf:ps.nf + ps.n_fixed]
 
     def at_snapshot(self):
         """Called when a snapshot is written: rebuild the AMG hierarchy at the next solve."""

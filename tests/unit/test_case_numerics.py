@@ -15,7 +15,8 @@ CASES = sorted((Path(__file__).resolve().parents[2] / "cases").glob("*.toml"))
 #: the keys a case may set, by table; ``*`` a whole sub-table, ``NAME`` any body name
 PHYSICAL = {
     "case": "*",
-    "fluid": {"material": "*", "blocks": "*", "initial_velocity": "*", "periodic_x": "*"},
+    "fluid": {"material": "*", "blocks": "*", "initial_velocity": "*", "periodic_x": "*",
+              "inflow": "*", "outflow": "*"},
     "walls": {"tanks": "*", "boxes": "*"},
     "solid": {"NAME": {"material": "*", "blocks": "*", "clamp": "*", "initial_velocity": "*"}},
     "soil": {"NAME": {"material": "*", "blocks": "*", "initial_stress": "*"}},

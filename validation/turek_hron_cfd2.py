@@ -1,0 +1,52 @@
+"""Turek & Hron (2006) CFD2: steady flow at Re = 100 past a cylinder with a rigid flag
+(cases/turek_hron_cfd2.toml).
+
+Reference (Turek & Hron 2006, the benchmark's table for CFD2): drag 136.7 N/m and lift
+10.53 N/m on the cylinder and the flag together. Measured: the ``body_force`` probe (the
+fluid's pressure and viscous pair forces on the wall particles of the cylinder and flag),
+averaged over the last second of the run; its standard deviation over that second says how
+steady the SPH flow is. ``errors.drag_mean_pct`` and ``errors.lift_mean_pct`` are signed %.
+The ladder is D / dx = 10 / 20 (dx 0.01 / 0.005 m); ``--quick`` runs the first.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from fsi_sph.output import read_probe
+from validation.common import run_ladder, write_outputs
+
+CASE = Path(__file__).resolve().parents[1] / "cases" / "turek_hron_cfd2.toml"
+LADDER = [0.01, 0.005]   # m; D / dx = 10, 20
+QUICK = [0.01]
+DRAG, LIFT = 136.7, 10.53  # N/m (Turek & Hron 2006, CFD2)
+WINDOW = 1.0  # s: the last second of the run is averaged
+
+
+def measure(sim, run_file):
+    t, f = read_probe(run_file, "body_force")
+    late = t >= t[-1] - WINDOW
+    drag, lift = float(np.mean(f["fx"][late])), float(np.mean(f["fy"][late]))
+    _, c = read_probe(run_file, "cylinder_force")
+    errors = {"drag_mean_pct": 100.0 * (drag - DRAG) / DRAG,
+              "lift_mean_pct": 100.0 * (lift - LIFT) / LIFT}
+    values = {"drag_N_per_m": drag, "lift_N_per_m": lift,
+              "drag_std_N_per_m": float(np.std(f["fx"][late])),
+              "lift_std_N_per_m": float(np.std(f["fy"][late])),
+              "cylinder_drag_N_per_m": float(np.mean(c["fx"][late])),
+              "cylinder_lift_N_per_m": float(np.mean(c["fy"][late])),
+              "window_s": WINDOW, "t_end_s": float(t[-1])}
+    return errors, values
+
+
+def validate(quick, data_dir, out_dir):
+    records = run_ladder(CASE, QUICK if quick else LADDER, out_dir, measure,
+                         ["case.output_every=1.0"])
+    result = {"case": "turek_hron_cfd2",
+              "reference": "Turek & Hron 2006 CFD2: drag 136.7 N/m, lift 10.53 N/m "
+                           "(cylinder and flag)",
+              "records": records}
+    write_outputs(result, out_dir)
+    return result
