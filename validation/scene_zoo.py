@@ -35,16 +35,25 @@ ENERGY_BOUND_PCT = 1.0
 REFINEMENT = 1.5
 
 
-def lost_particles(sim, lo, hi, dx) -> int:
+def lost_particles(sim, lo, hi, dx) -> tuple[int, list]:
     """Particles that are not finite or have left through a wall (below ``lo[1]`` or beside
-    ``[lo[0], hi[0]]`` by more than two spacings)."""
-    lost = 0
-    for obj in sim.bodies().values():
+    ``[lo[0], hi[0]]`` by more than two spacings): their number and the first one's body and
+    position."""
+    lost, first = 0, []
+    for name, obj in sim.bodies().items():
         x = obj.body["x"]
         bad = ~np.isfinite(x).all(axis=1)
         bad |= (x[:, 0] < lo[0] - 2 * dx) | (x[:, 0] > hi[0] + 2 * dx) | (x[:, 1] < lo[1] - 2 * dx)
+        if bad.any() and not first:
+            first = [name, *x[np.flatnonzero(bad)[0]].tolist()]
         lost += int(bad.sum())
-    return lost
+    return lost, first
+
+
+def _worst(lost, where, now, t):
+    """The largest loss so far and where its first particle was (body, x, y, t)."""
+    n, first = now
+    return (n, [*first, t]) if n > lost else (lost, where)
 
 
 def scene_extent(sim):
@@ -77,7 +86,7 @@ def run_scene(path: Path, overrides=()) -> dict:
     energy = SceneEnergy(sim)
     lo, hi = scene_extent(sim)
     dx, t_end = cfg.case.dx, cfg.case.t_end
-    history, status, lost = [(0.0, 0.0)], "completed", 0
+    history, status, lost, where = [(0.0, 0.0)], "completed", 0, []
     loop_t0 = time.perf_counter()
     try:
         sim.check()
@@ -86,9 +95,9 @@ def run_scene(path: Path, overrides=()) -> dict:
             history.append((sim.t, energy.drift_pct(sim)))
             if sim.n_steps % cfg.guard.check_every == 0:
                 sim.check()
-                lost = max(lost, lost_particles(sim, lo, hi, dx))
+                lost, where = _worst(lost, where, lost_particles(sim, lo, hi, dx), sim.t)
         sim.check()
-        lost = max(lost, lost_particles(sim, lo, hi, dx))
+        lost, where = _worst(lost, where, lost_particles(sim, lo, hi, dx), sim.t)
     except SimulationError as e:
         status = f"failed: {str(e).splitlines()[0]}"
     loop = time.perf_counter() - loop_t0
@@ -103,7 +112,8 @@ def run_scene(path: Path, overrides=()) -> dict:
              path.stem, status, rise, drift[-1, 1], lost, summary["wall_time_s"])
     return make_record(path.stem, dx, summary, {"energy_rise_pct": rise,
                                                 "energy_final_pct": float(drift[-1, 1])}, {
-        "passed": passed, "status": status, "lost": lost, "driven": driven, "t_end_s": t_end,
+        "passed": passed, "status": status, "lost": lost, "lost_first": where,
+        "driven": driven, "t_end_s": t_end,
         "t_reached_s": sim.t,
         "energy_initial_J_per_m": energy.initial,
         "history_t_s": drift[:, 0].tolist(), "history_energy_pct": drift[:, 1].tolist(),
