@@ -97,7 +97,7 @@ def markdown_table(result: dict) -> str:
     recs = result["records"]
     marks = result.get("marks") or {}
     ekeys = list(dict.fromkeys(k for r in recs for k in r["errors"]))
-    status = any("status" in r.get("values", {}) for r in recs)  # pass/fail records
+    status = any("passed" in r.get("values", {}) for r in recs)  # pass/fail records
     head = ["label", "dx (m)", "particles", "steps", "wall time (s)", "particle-steps/s",
             *[f"{k}" for k in ekeys], *(["status"] if status else [])]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
