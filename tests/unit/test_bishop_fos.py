@@ -62,3 +62,15 @@ def test_cohesionless_critical_circle_tends_to_the_infinite_slope():
                            n_starts=2)
     f_inf = infinite_slope_fos(20.0, 45.0)
     assert f_inf < circ.fos < 1.03 * f_inf
+
+
+def test_griffiths_lane_example_1_against_the_charts():
+    """The 2:1 slope of Griffiths & Lane (1999), example 1 (phi' = 20 deg, c'/(gamma H) = 0.05,
+    rigid base at the toe level): Bishop & Morgenstern's (1960) charts give 1.380 (quoted by
+    Griffiths & Lane); the package's Bishop with its circle search on the validation case's
+    profile lands within 0.5 % of it."""
+    H, gamma = 10.0, 20.0e3
+    slope = [(0.0, H), (1.2 * H, H), (3.2 * H, 0.0), (5.2 * H, 0.0)]
+    circ = critical_circle(slope, 0.05 * gamma * H, 20.0, gamma, x_wall=0.0, y_floor=0.0)
+    assert circ.fos == pytest.approx(1.380, rel=0.005)
+
