@@ -5,7 +5,12 @@ import math
 
 import pytest
 
-from fsi_sph.soil.limit_equilibrium import bishop_fos, critical_circle, infinite_slope_fos
+from fsi_sph.soil.limit_equilibrium import (
+    bishop_fos,
+    critical_circle,
+    infinite_slope_fos,
+    slip_mass,
+)
 
 GAMMA = 20.0e3
 C = 20.0e3
@@ -74,3 +79,15 @@ def test_griffiths_lane_example_1_against_the_charts():
     circ = critical_circle(slope, 0.05 * gamma * H, 20.0, gamma, x_wall=0.0, y_floor=0.0)
     assert circ.fos == pytest.approx(1.380, rel=0.005)
 
+
+def test_a_circle_over_the_toe_moves_the_soil_beyond_it():
+    """Slope 3's profile, a circle centred at (22, 19) passing 1 cm over the toe (20, 5): it
+    dips under the layer's surface beyond the toe and comes out at x = 22 + sqrt(R^2 - 14^2)
+    (about 23.9). The slip mass reaches there: the soil inside the circle moves with it.
+    Cut short before the toe it left out ~4 m of base through the layer, and the search found
+    slope 3's critical circle in that gap (0.897 instead of 0.901)."""
+    layer = [(0.0, 15.0), (10.0, 15.0), (20.0, 5.0), (45.0, 5.0)]
+    R = math.hypot(2.0, 14.0) - 0.01
+    xe, xx = slip_mass(layer, 22.0, 19.0, R, x_wall=0.0, y_floor=0.0)
+    assert xx == pytest.approx(22.0 + math.sqrt(R * R - 14.0**2), abs=1e-3)
+    assert xe == pytest.approx(22.0 - math.sqrt(R * R - 4.0**2), abs=1e-3)  # enters the crest
