@@ -72,11 +72,11 @@ def slip_mass(profile, xc, yc, R, x_wall=0.0, y_floor=0.0, n_probe=1200):
     inside = (gx - yarc > 0.0) & (gx > y_floor + 1e-9 * R)
     if not inside.any():
         return None
-    # the largest contiguous run of x where the arc is below the ground
+    # all of it, from the first to the last x where the arc is below the ground: a circle that
+    # touches the ground at the toe and dips under it again beyond moves that soil too (the
+    # largest run alone let the search pass circles through the toe at no cost beyond it)
     idx = np.flatnonzero(inside)
-    runs = np.split(idx, np.flatnonzero(np.diff(idx) > 1) + 1)
-    run = max(runs, key=len)
-    k0, k1 = run[0], run[-1]
+    k0, k1 = idx[0], idx[-1]
     if k0 == 0 or k1 == len(x) - 1:
         return None  # the lower arc does not close the slip mass (or it meets the profile ends)
     if x[k0] < x_wall - 1e-12:
@@ -138,6 +138,7 @@ def bishop_fos(profile, xc, yc, R, cohesion, phi_deg, gamma, x_wall=0.0, y_floor
     # exact base length of each slice (the midpoint b/cos(a) is poor where the base is steep)
     theta = np.arcsin(np.clip((xc - edges) / R, -1.0, 1.0))
     base = R * np.abs(np.diff(theta))
+    coh = np.where(hgt > 0.0, cohesion, 0.0)  # no cohesion where the arc passes through air
     drive = float(np.sum(W * sin_a))
     if drive <= 0.0:
         return math.inf
@@ -147,7 +148,7 @@ def bishop_fos(profile, xc, yc, R, cohesion, phi_deg, gamma, x_wall=0.0, y_floor
         m_a = cos_a + sin_a * tan_p / F
         if np.any(m_a <= 0.0):
             return math.inf
-        F_new = float(np.sum((cohesion * base * cos_a + W * tan_p) / m_a)) / drive
+        F_new = float(np.sum((coh * base * cos_a + W * tan_p) / m_a)) / drive
         if abs(F_new - F) < 1e-10 * F:
             F = F_new
             break

@@ -5,7 +5,12 @@ import math
 
 import pytest
 
-from fsi_sph.soil.limit_equilibrium import bishop_fos, critical_circle, infinite_slope_fos
+from fsi_sph.soil.limit_equilibrium import (
+    bishop_fos,
+    critical_circle,
+    infinite_slope_fos,
+    slip_mass,
+)
 
 GAMMA = 20.0e3
 C = 20.0e3
@@ -62,3 +67,27 @@ def test_cohesionless_critical_circle_tends_to_the_infinite_slope():
                            n_starts=2)
     f_inf = infinite_slope_fos(20.0, 45.0)
     assert f_inf < circ.fos < 1.03 * f_inf
+
+
+def test_griffiths_lane_example_1_against_the_charts():
+    """The 2:1 slope of Griffiths & Lane (1999), example 1 (phi' = 20 deg, c'/(gamma H) = 0.05,
+    rigid base at the toe level): Bishop & Morgenstern's (1960) charts give 1.380 (quoted by
+    Griffiths & Lane); the package's Bishop with its circle search on the validation case's
+    profile lands within 0.5 % of it."""
+    H, gamma = 10.0, 20.0e3
+    slope = [(0.0, H), (1.2 * H, H), (3.2 * H, 0.0), (5.2 * H, 0.0)]
+    circ = critical_circle(slope, 0.05 * gamma * H, 20.0, gamma, x_wall=0.0, y_floor=0.0)
+    assert circ.fos == pytest.approx(1.380, rel=0.005)
+
+
+def test_a_circle_over_the_toe_moves_the_soil_beyond_it():
+    """Slope 3's profile, a circle centred at (22, 19) passing 1 cm over the toe (20, 5): it
+    dips under the layer's surface beyond the toe and comes out at x = 22 + sqrt(R^2 - 14^2)
+    (about 23.9). The slip mass reaches there: the soil inside the circle moves with it.
+    Cut short before the toe it left out ~4 m of base through the layer, and the search found
+    slope 3's critical circle in that gap (0.897 instead of 0.901)."""
+    layer = [(0.0, 15.0), (10.0, 15.0), (20.0, 5.0), (45.0, 5.0)]
+    R = math.hypot(2.0, 14.0) - 0.01
+    xe, xx = slip_mass(layer, 22.0, 19.0, R, x_wall=0.0, y_floor=0.0)
+    assert xx == pytest.approx(22.0 + math.sqrt(R * R - 14.0**2), abs=1e-3)
+    assert xe == pytest.approx(22.0 - math.sqrt(R * R - 4.0**2), abs=1e-3)  # enters the crest

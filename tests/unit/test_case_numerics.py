@@ -10,7 +10,10 @@ import pytest
 from fsi_sph.config import load_config
 from fsi_sph.config.numerics import pick_numerics
 
-CASES = sorted((Path(__file__).resolve().parents[2] / "cases").glob("*.toml"))
+REPO = Path(__file__).resolve().parents[2]
+#: the shipped cases, the validation's own cases and the unseen slopes of the tests
+CASES = sorted([*(REPO / "cases").glob("*.toml"), *(REPO / "validation" / "cases").glob("*.toml"),
+                *(REPO / "tests" / "data" / "slopes").glob("*.toml")])
 
 #: the keys a case may set, by table; ``*`` a whole sub-table, ``NAME`` any body name
 PHYSICAL = {

@@ -139,3 +139,16 @@ def test_coarse_slope_strength_reduction(tmp_path, capsys):
     assert abs(r["fos"] - r["fos_bishop"]) < 0.10 * r["fos_bishop"]
     assert (tmp_path / "fos_slip_surface.png").is_file()
     assert (tmp_path / "fos_displacement_vs_F.png").is_file()
+
+
+def test_coarse_unseen_c_phi_slope(tmp_path, capsys):
+    """An unseen c-phi slope (``tests/data/slopes/steep_10m_45deg.toml``: 10 m at 45 deg on a
+    4 m layer, c = 20 kPa, phi = 20 deg, E = 100 MPa) at dx = H/10 through the whole
+    command, nothing set but the spacing: within the issue's 5 % of Bishop (1.234 against
+    1.246, -1.0 %, at this spacing; -2.4 % at H/20; docs/validation/slopes.md)."""
+    case = Path(__file__).resolve().parents[1] / "data" / "slopes" / "steep_10m_45deg.toml"
+    assert main(["fos", str(case), "--set", "case.dx=1.0", "--out", str(tmp_path),
+                 "--threads", "1"]) == 0
+    r = json.loads((tmp_path / "result.json").read_text())
+    assert r["n_particles"] < 400
+    assert abs(r["fos"] - r["fos_bishop"]) < 0.05 * r["fos_bishop"]
