@@ -9,7 +9,8 @@ error: the scene zoo's bound (validation/scene_zoo.py).
 The potential energy is measured from a datum, ``-m g . (x - x_datum)``; :class:`SceneEnergy`
 takes the lowest initial particle along gravity as the datum, so the initial total is the
 energy the scene can release, and a drift in per cent of it does not depend on where the
-origin of the coordinates lies.
+origin of the coordinates lies. Definitions, not in PHYSICS.md; tested against a hand sum and
+the free fall of an elastic block (tests/unit/test_energy.py).
 """
 
 from __future__ import annotations

@@ -1,7 +1,8 @@
 """A shaken scene: the frame (tank, walls and all bodies' coordinates) moves as
 ``X(t) = A sin(omega t) d`` (``case.shaking``); the bodies are computed in that frame, where
 each particle feels the body force ``g - X''(t) = g + A omega^2 sin(omega t) d`` (d' Alembert's
-inertial force; the frame does not rotate). A sloshing tank is the standard use."""
+inertial force; the frame does not rotate). A sloshing tank is the standard use. Not in
+PHYSICS.md; tested against the analytic motion of a free body (tests/unit/test_frame.py)."""
 
 from __future__ import annotations
 

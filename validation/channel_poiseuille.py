@@ -30,7 +30,7 @@ import h5py
 import numpy as np
 
 from fsi_sph.output import read_probe
-from validation.common import run_ladder, write_outputs
+from validation.common import ladder_result
 
 CASE = Path(__file__).resolve().parents[1] / "cases" / "channel_poiseuille.toml"
 LADDER = [0.01, 0.005, 0.0025]   # m; H / dx = 10, 20, 40
@@ -82,12 +82,11 @@ def measure(sim, run_file):
     return errors, values
 
 
+REFERENCE = ("analytic plane Poiseuille flow u = 6 U s (1 - s), dp/dx = -12 rho nu U / H^2; "
+             "mass in = mass out")
+
+
 def validate(quick, data_dir, out_dir):
-    records = run_ladder(CASE, QUICK if quick else LADDER, out_dir, measure,
+    ladder = QUICK if quick else LADDER
+    return ladder_result("channel_poiseuille", REFERENCE, CASE, ladder, out_dir, measure,
                          ["case.output_every=2.0"])
-    result = {"case": "channel_poiseuille",
-              "reference": "analytic plane Poiseuille flow u = 6 U s (1 - s), "
-                           "dp/dx = -12 rho nu U / H^2; mass in = mass out",
-              "records": records}
-    write_outputs(result, out_dir)
-    return result

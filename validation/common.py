@@ -149,3 +149,11 @@ def write_outputs(result: dict, out_dir, error_keys=None, title=None, marks=None
         log.info("%s", line)
     log.info("wrote %s", out)
     return out
+
+
+def ladder_result(name, reference, case, ladder, out_dir, measure, overrides=()) -> dict:
+    """Run ``ladder`` through :func:`run_ladder`, write the outputs and return the record."""
+    result = {"case": name, "reference": reference,
+              "records": run_ladder(case, ladder, out_dir, measure, list(overrides))}
+    write_outputs(result, out_dir)
+    return result

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from fsi_sph.output import read_probe
-from validation.common import run_ladder, write_outputs
+from validation.common import ladder_result
 
 CASE = Path(__file__).resolve().parents[1] / "cases" / "turek_hron_cfd2.toml"
 LADDER = [0.01, 0.005]   # m; D / dx = 10, 20
@@ -41,12 +41,10 @@ def measure(sim, run_file):
     return errors, values
 
 
+REFERENCE = "Turek & Hron 2006 CFD2: drag 136.7 N/m, lift 10.53 N/m (cylinder and flag)"
+
+
 def validate(quick, data_dir, out_dir):
-    records = run_ladder(CASE, QUICK if quick else LADDER, out_dir, measure,
+    ladder = QUICK if quick else LADDER
+    return ladder_result("turek_hron_cfd2", REFERENCE, CASE, ladder, out_dir, measure,
                          ["case.output_every=1.0"])
-    result = {"case": "turek_hron_cfd2",
-              "reference": "Turek & Hron 2006 CFD2: drag 136.7 N/m, lift 10.53 N/m "
-                           "(cylinder and flag)",
-              "records": records}
-    write_outputs(result, out_dir)
-    return result

@@ -117,24 +117,24 @@ def _fluid_picks(data: dict, picks: list[Pick]) -> None:
     material = fluid.get("material")
     granular = isinstance(material, dict) and material.get("viscosity") == "mu_i"
     coupled = isinstance(data.get("coupling"), dict)
+    through_flow = bool(fluid.get("inflow") or fluid.get("outflow"))
     for key in ("shifting", "collision"):
         _switch_off(fluid, key)
     if granular:
         _fill(fluid, _GRANULAR_FLUID, "fluid", GRANULAR, picks)
-        shifting = _GRANULAR_SHIFTING
-        reason = GRANULAR
-    elif fluid.get("inflow") or fluid.get("outflow"):
+    if through_flow and not granular:
         _fill(fluid, _THROUGH_FLOW_FLUID, "fluid", THROUGH_FLOW, picks)
-        if coupled:
-            _fill(fluid, _COUPLED_FLUID, "fluid", COUPLED, picks)
-        shifting, reason = _THROUGH_FLOW_SHIFTING, THROUGH_FLOW
-    elif coupled:
+    if coupled and not granular:
         _fill(fluid, _COUPLED_FLUID, "fluid", COUPLED, picks)
         if _all_clamped(data):
             _fill(fluid, _CLAMPED_FLUID, "fluid", CLAMPED, picks)
-        shifting, reason = _COUPLED_SHIFTING, COUPLED
-    else:
-        shifting, reason = _NEWTONIAN_SHIFTING, FREE_SURFACE
+    # the shifting law: the first of these the scene declares
+    shifting, reason = next(
+        (law, why) for declared, law, why in (
+            (granular, _GRANULAR_SHIFTING, GRANULAR),
+            (through_flow, _THROUGH_FLOW_SHIFTING, THROUGH_FLOW),
+            (coupled, _COUPLED_SHIFTING, COUPLED),
+            (True, _NEWTONIAN_SHIFTING, FREE_SURFACE)) if declared)
     if fluid.get("shifting", {}) is not None:
         fluid.setdefault("shifting", {})
         if isinstance(fluid["shifting"], dict):

@@ -150,3 +150,13 @@ def test_the_stored_config_reloads_to_itself():
     cfg = load_config(None, text=GRANULAR)
     out, picks = pick_numerics(json.loads(cfg.model_dump_json()))
     assert picks == []
+
+
+def test_a_clamped_structure_in_a_through_flow_takes_both_picks():
+    inflow = ("[[fluid.inflow]]\nx = 0.0\ny_range = [0.0, 0.1]\n"
+              "velocity = { profile = \"uniform\", mean = 0.1 }\n")
+    text = GATE.replace("[walls]", inflow + "[walls]", 1)
+    f = load_config(None, text=text).fluid
+    assert f.density_relaxation == 0.05 and f.relaxation_gap_rows
+    assert f.pressure_gradient == "interface_conservative" and f.dt_max == 2.0e-4
+    assert f.shifting.model == "fickian"
