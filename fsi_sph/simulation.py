@@ -268,8 +268,11 @@ class Simulation:
                 self.check()
                 sample()
                 self.next_probe += c.probe_every
-                flush(True)
+                # the clock of the initial restart point must already name the next output
+                # (a run restarted from it would otherwise write a snapshot, and reset the
+                # kept solver state, one step after the start)
                 self.next_out += c.output_every
+                flush(True)
             steps0 = self.n_steps
             while self.t < c.t_end - eps:
                 if max_steps is not None and self.n_steps - steps0 >= max_steps:
