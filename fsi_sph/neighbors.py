@@ -130,7 +130,9 @@ def find_neighbors(xd, xs, radius, exclude_self=False):
     _candidates(xd, lo, radius, ncx, ncy, cstart, cand)
     slot_start = np.zeros(nd + 1, dtype=np.int64)
     np.cumsum(cand, out=slot_start[1:])
-    slots = np.empty(slot_start[-1], dtype=np.int64)
+    # candidates: about 9 / pi times the pairs (3 x 3 cells against a circle), the search's
+    # largest array; int32 where the indices fit (half its memory; the result stays int64)
+    slots = np.empty(slot_start[-1], dtype=np.int32 if len(xs) < 2**31 else np.int64)
     count = np.empty(nd, dtype=np.int64)
     _fill(xd, xs, lo, radius, ncx, ncy, cstart, citems, radius * radius, exclude_self,
           slot_start, slots, count)

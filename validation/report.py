@@ -101,6 +101,7 @@ def write_report(results: dict, path=HERE / "REPORT.md", fig_dir=HERE / "report"
                              f"{k} = {v:.4g}" if isinstance(v, float) else f"{k} = {v}"
                              for k, v in values.items()))
             lines.append("")
+    lines += scaling_section(HERE / "results" / "benchmark_scaling.json")
     for name, why in (failures or {}).items():
         lines += [f"## {name}", "", f"**Did not run to the end**: {why}", ""]
     for name in missing:
@@ -108,3 +109,36 @@ def write_report(results: dict, path=HERE / "REPORT.md", fig_dir=HERE / "report"
                   f"{name} [--quick]`.", ""]
     path.write_text("\n".join(lines))
     return path
+
+
+def scaling_section(path) -> list[str]:
+    """The fluid scaling table of ``validation/benchmark_scaling.py --json`` (stored as
+    ``validation/results/benchmark_scaling.json``), or nothing when it is absent."""
+    path = Path(path)
+    if not path.exists():
+        return []
+    bench = json.loads(path.read_text())
+    load = bench.get("load_average", [[None], [None]])
+    lines = ["## Fluid scaling (benchmark, not a validation)", "",
+             "`python validation/benchmark_scaling.py --json "
+             "validation/results/benchmark_scaling.json`"
+             f", dam break, {bench['threads']} threads, {bench['machine']}, load average "
+             f"{load[0][0]:.2f} -> {load[1][0]:.2f} (1 min, before -> after); measured "
+             f"{bench.get('date', '(date not recorded)')}. Mean of the steps after two warm-up "
+             "steps; peak RSS of the whole process (one process per size).", "",
+             "| size | fluid particles | s / step | particle-steps / s | peak RSS (MB) "
+             "| kB / particle | neighbours | surface | shift | predict | PPE assembly "
+             "| AMG set-up | Krylov | correct |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for label, r in bench["rows"].items():
+        ph = r["phases_s_per_step"]
+        ms = " | ".join(f"{1e3 * ph[k]:.1f}" for k in (
+            "neighbours", "free_surface", "shift", "predict", "ppe_assemble", "ppe_setup",
+            "ppe_solve", "correct"))
+        lines.append(f"| {label} | {r['n_fluid']} | {r['s_per_step']:.3f} | "
+                     f"{r['particle_steps_per_s']:.3g} | {r['peak_rss_bytes'] / 1e6:.0f} | "
+                     f"{r['rss_per_particle_kB']:.2f} | {ms} |")
+    lines += ["", "Phases in ms per step (AMG set-up: the hierarchy is kept between steps and "
+              "rebuilt at snapshots or when the iterations grow; none fell in the timed steps).",
+              ""]
+    return lines

@@ -83,37 +83,45 @@ def residual_serial(indptr, indices, data, x, b, out):
 
 
 @njit(cache=True)
-def _sweep_rows(indptr, indices, data, dinv, xx, b, rows, lo, hi, forward):
-    """Gauss-Seidel over ``rows[lo:hi]`` (in increasing or decreasing order): row ``i`` of
-    the off-diagonal part (``indptr, indices, data``; column indices into ``xx``) and
-    ``x_i = (b_i - sum_j a_ij xx_j) / a_ii`` (``dinv`` = 1 / a_ii; a row with a_ii = 0, dinv
-    0, is left as it is)."""
+def _sweep_rows(indptr, indices, data, dinv, block, xx, b, rows, lo, hi, forward):
+    """Gauss-Seidel over ``rows[lo:hi]`` (in increasing or decreasing order) on the matrix
+    itself (``indptr, indices, data``): ``x_i = (b_i - sum_{j != i} a_ij x_j) / a_ii``
+    (``dinv`` = 1 / a_ii; a row with a_ii = 0, dinv 0, is left as it is), where a column
+    ``j`` of another block than the row's (``block``) is read from the frozen copy
+    ``xx[n + j]``."""
+    n = b.shape[0]
     m = hi - lo
     for step in range(m):
         i = rows[lo + (step if forward else m - 1 - step)]
         s = b[i]
+        bi = block[i]
         for k in range(indptr[i], indptr[i + 1]):
-            s -= data[k] * xx[indices[k]]
+            j = indices[k]
+            if j == i:
+                continue
+            s -= data[k] * xx[j if block[j] == bi else n + j]
         if dinv[i] != 0.0:
             xx[i] = s * dinv[i]
 
 
 @njit(cache=True, parallel=True)
-def gauss_seidel(indptr, indices, data, dinv, xx, b, forward, rows, rows_start):
+def gauss_seidel(indptr, indices, data, dinv, block, xx, b, forward, rows, rows_start):
     """One hybrid Gauss-Seidel sweep on ``A x = b`` in place, ``x = xx[:n]``.
 
-    The rows are split into blocks (block ``q`` holds ``rows[rows_start[q]:rows_start[q+1]]``)
-    swept in parallel: each block is a Gauss-Seidel sweep over its rows in increasing
-    (``forward``) or decreasing order that reads the other blocks' unknowns as they were
-    before the sweep, from ``xx[n:]`` (the off-diagonal columns of a row that lie in another
-    block point there: :class:`_Smoother`); no test of a column's block in the inner loop.
-    The result depends on the blocks only, never on the number of threads."""
+    The rows are split into blocks (block ``q`` holds ``rows[rows_start[q]:rows_start[q+1]]``,
+    ``block[i]`` is row ``i``'s) swept in parallel: each block is a Gauss-Seidel sweep over
+    its rows in increasing (``forward``) or decreasing order that reads the other blocks'
+    unknowns as they were before the sweep, from ``xx[n:]``. It reads ``A`` itself (an
+    off-diagonal copy with the other blocks' columns moved to ``n + j`` held a quarter of the
+    step's memory at 1 M particles and cost a pass over ``A`` per step; the sums are the
+    same, in the same order). The result depends on the blocks only, never on the number of
+    threads."""
     n = b.shape[0]
     for i in prange(n):
         xx[n + i] = xx[i]
     for q in prange(rows_start.shape[0] - 1):
-        _sweep_rows(indptr, indices, data, dinv, xx, b, rows, rows_start[q], rows_start[q + 1],
-                    forward)
+        _sweep_rows(indptr, indices, data, dinv, block, xx, b, rows, rows_start[q],
+                    rows_start[q + 1], forward)
 
 
 @njit(cache=True)
@@ -131,11 +139,9 @@ def gauss_seidel_serial(indptr, indices, data, dinv, x, b, forward):
 
 
 @njit(cache=True)
-def _split_off_diagonal(indptr, indices, data, block, n, out_indptr, out_indices, out_data,
-                        dinv):
-    """The off-diagonal part of a CSR matrix (entries in the original order), 1 / the
-    diagonal (the sum of the diagonal entries; 0 where that is 0), and the columns of other
-    blocks than the row's (``block``; empty array: one block) moved to ``n + j``."""
+def _split_off_diagonal(indptr, indices, data, n, out_indptr, out_indices, out_data, dinv):
+    """The off-diagonal part of a CSR matrix (entries in the original order) and 1 / the
+    diagonal (the sum of the diagonal entries; 0 where that is 0)."""
     m = 0
     for i in range(n):
         out_indptr[i] = m
@@ -145,12 +151,24 @@ def _split_off_diagonal(indptr, indices, data, block, n, out_indptr, out_indices
             if j == i:
                 d += data[k]
             else:
-                out_indices[m] = j if block.shape[0] == 0 or block[j] == block[i] else n + j
+                out_indices[m] = j
                 out_data[m] = data[k]
                 m += 1
         dinv[i] = 1.0 / d if d != 0.0 else 0.0
     out_indptr[n] = m
     return m
+
+
+@njit(cache=True, parallel=True)
+def _inverse_diagonal(indptr, indices, data, dinv):
+    """1 / the diagonal of a CSR matrix (the sum of the row's diagonal entries; 0 where that
+    is 0), as :func:`_split_off_diagonal` computes it."""
+    for i in prange(dinv.shape[0]):
+        d = 0.0
+        for k in range(indptr[i], indptr[i + 1]):
+            if indices[k] == i:
+                d += data[k]
+        dinv[i] = 1.0 / d if d != 0.0 else 0.0
 
 
 @njit(cache=True)
@@ -197,9 +215,9 @@ class _Blocks:
 
 
 class _Smoother:
-    """Gauss-Seidel data of one level: the off-diagonal part of ``A`` (columns of another
-    block than the row's pointing at the frozen copy ``xx[n + j]``), ``1 / diag(A)``, the
-    blocks' row lists (none: plain Gauss-Seidel)."""
+    """Gauss-Seidel data of one level: ``1 / diag(A)``; in blocks (the finest level) ``A``
+    itself and the blocks' row lists (:func:`gauss_seidel`), else (plain Gauss-Seidel, the
+    small coarse levels) a copy of ``A``'s off-diagonal part."""
 
     def __init__(self, A, block=None):
         self._indices = np.empty(0, dtype=np.int32)
@@ -208,18 +226,22 @@ class _Smoother:
 
     def update(self, A, block=None):
         """Rebuild from ``A`` (a :class:`_Csr`), reusing the arrays when they are large
-        enough (a refresh every step: no new memory to fault in)."""
+        enough (a refresh every step: no new memory to fault in). In blocks (the finest
+        level) the sweep reads ``A`` itself and only ``1 / diag(A)`` is made here."""
         n = A.shape[0]
         self.n = n
         self.blocks = _Blocks(block) if block is not None else None
-        bl = self.blocks.block if block is not None else np.empty(0, dtype=np.int32)
+        self.dinv = np.empty(n)
+        if block is not None:
+            self.indptr, self.indices, self.data = A.indptr, A.indices, A.data
+            _inverse_diagonal(A.indptr, A.indices, A.data, self.dinv)
+            return
         nnz = len(A.data)
         if len(self._data) < nnz:
             self._indices = np.empty(nnz, dtype=np.int32)
             self._data = np.empty(nnz)
         self.indptr = np.empty(n + 1, dtype=np.int32)
-        self.dinv = np.empty(n)
-        m = _split_off_diagonal(A.indptr, A.indices, A.data, bl, n, self.indptr, self._indices,
+        m = _split_off_diagonal(A.indptr, A.indices, A.data, n, self.indptr, self._indices,
                                 self._data, self.dinv)
         self.indices = self._indices[:m]
         self.data = self._data[:m]
@@ -234,8 +256,8 @@ class _Smoother:
         if self.blocks is None:
             gauss_seidel_serial(self.indptr, self.indices, self.data, self.dinv, x, b, forward)
         else:
-            gauss_seidel(self.indptr, self.indices, self.data, self.dinv, x.base, b, forward,
-                         self.blocks.rows, self.blocks.rows_start)
+            gauss_seidel(self.indptr, self.indices, self.data, self.dinv, self.blocks.block,
+                         x.base, b, forward, self.blocks.rows, self.blocks.rows_start)
 
 
 PARALLEL_ROWS = 8000  # below this many rows a loop runs on one thread (fewer barriers)

@@ -139,6 +139,7 @@ class FluidParticles:
         self.grad_v = np.zeros((self.nf, 2, 2))
         self.L = np.zeros((self.nf, 2, 2))
         self._L_key, self._L_x = None, np.empty((0, 2))  # what self.L was computed for
+        self._lists_made = 0  # neighbour lists built so far
         self.periodic = None  # periodic images (periodic.py), set by the fluid
 
     @property
@@ -232,6 +233,10 @@ class FluidParticles:
         self.sync()
         r = SUPPORT * self.h
         xf = self.x_all[:self.nf]
+        # the last lists go before the search makes the new ones (at 1 M particles the
+        # search's peak memory was the largest of the step; validation/benchmark_scaling.py)
+        self.ff_start = self.ff_j = self.wf_start = self.wf_j = None
+        self._lists_made += 1  # (what correction_matrices' cache is keyed on)
         self.ff_start, self.ff_j = find_neighbors(xf, self.x_all, r, exclude_self=True)
         if self.nw:  # boundary rows (walls, structures) over fluid sources
             self.wf_start, self.wf_j = find_neighbors(self.x_all[self.nf:], xf, r)
@@ -245,7 +250,7 @@ class FluidParticles:
         positions and neighbour lists: the mu(I) predictor's gradients, the incremental
         projection's lagged pressure gradient and the PPE all need it at the same positions
         within a step."""
-        key = (id(self.ff_start), id(self.ff_j))
+        key = self._lists_made
         if (key == self._L_key and self._L_x.shape == self.x_all.shape
                 and np.array_equal(self._L_x, self.x_all)):
             return

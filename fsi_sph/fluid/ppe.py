@@ -104,14 +104,13 @@ class PressureSolver:
 
     def __init__(self, cfg):
         self.cfg = cfg
-        self.ml = None
         self.vcycle = None
         self.age = 0
         self.base_iterations = None
         self.last_iterations = 0
 
     def _needs_rebuild(self, n):
-        if self.ml is None or self.ml.levels[0].A.shape[0] != n:
+        if self.vcycle is None or self.vcycle.A[0].shape[0] != n:
             return True
         if self.age >= self.cfg.rebuild_every:
             return True
@@ -126,17 +125,21 @@ class PressureSolver:
             # share a C point): operator complexity 1.34 instead of 1.33, and BiCGStab
             # iterations to rtol 1e-6 from a zero guess 3/3/4 instead of 5/5/7 at
             # 10k/40k/160k unknowns of the dam break's PPE
-            self.ml = pyamg.ruge_stuben_solver(
+            ml = pyamg.ruge_stuben_solver(
                 A, CF=("RS", {"second_pass": True}), max_coarse=500, coarse_solver="splu",
                 strength=("classical", {"theta": self.cfg.strength_theta}),
                 presmoother=("gauss_seidel", {"sweep": "forward"}),
                 postsmoother=("gauss_seidel", {"sweep": "backward"}))
         else:
-            self.ml = amg.seeded_build(pyamg.smoothed_aggregation_solver, A,
+            ml = amg.seeded_build(pyamg.smoothed_aggregation_solver, A,
                                        symmetry="nonsymmetric", max_coarse=500,
                                        coarse_solver="splu")
-        # the V-cycle applied by numba (fsi_sph/fluid/amg.py), finest level in two blocks
-        self.vcycle = amg.VCycle(self.ml, amg.two_blocks(A, nf) if nf else None)
+        # the V-cycle applied by numba (fsi_sph/fluid/amg.py), finest level in two blocks;
+        # pyamg's own object is not kept: it holds the matrix it was built on (replaced on
+        # the finest level at every later step) and each level's strength-of-connection
+        # matrix, which the V-cycle does not use (with it the hierarchy held about 1 kB per
+        # fluid particle at 1 M particles; validation/benchmark_scaling.py)
+        self.vcycle = amg.VCycle(ml, amg.two_blocks(A, nf) if nf else None)
         self.age = 0
         self.base_iterations = None
 
@@ -144,7 +147,6 @@ class PressureSolver:
         """Drop the hierarchy; the next solve builds a new one. Called at every snapshot, so
         that a run restarted from a snapshot uses the same preconditioners as an
         uninterrupted one (bit-identical restart)."""
-        self.ml = None
         self.vcycle = None
         self.age = 0
         self.base_iterations = None
