@@ -313,6 +313,16 @@ def _single_threaded_blas():
     os.environ.setdefault("MKL_NUM_THREADS", "1")
 
 
+def _quiet_stdout():
+    """Point stdout at /dev/null, so that Python's own flush at exit does not raise the
+    broken pipe again (the recipe of the Python docs, "Note on SIGPIPE")."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):  # (a stdout without a file descriptor)
+        pass
+
+
 def main(argv=None):
     _single_threaded_blas()
 
@@ -333,6 +343,9 @@ def main(argv=None):
         print("fsi-sph: interrupted; the output file keeps every snapshot written so far",
               file=sys.stderr)
         return 130
+    except BrokenPipeError:  # `fsi-sph info CASE | head`: the reader has what it wanted
+        _quiet_stdout()
+        return 141  # the shell's code for a pipe closed by its reader (128 + SIGPIPE)
     except Exception as e:  # a failed run: say what happened, no traceback unless asked
 
         if isinstance(e, SimulationError):

@@ -139,6 +139,7 @@ def scaling_section(path) -> list[str]:
                      f"{r['particle_steps_per_s']:.3g} | {r['peak_rss_bytes'] / 1e6:.0f} | "
                      f"{r['rss_per_particle_kB']:.2f} | {ms} |")
     lines += ["", "Phases in ms per step (AMG set-up: the hierarchy is kept between steps and "
-              "rebuilt at snapshots or when the iterations grow; none fell in the timed steps).",
+              "rebuilt at snapshots or when the iterations grow: 0.0 where no rebuild fell in "
+              "the timed steps).",
               ""]
     return lines

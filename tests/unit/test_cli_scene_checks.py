@@ -185,3 +185,18 @@ def test_fluid_over_a_soil_polygon_is_refused_and_beside_it_allowed(tmp_path, ca
     case = write(tmp_path, TANK.replace("BX", "0.0") + steep, "steep.toml")
     assert_refused(capsys, ["info", case], "fluid.blocks[0] overlaps soil.bank.blocks[0]",
                    "not coupled", "move one of the two")
+
+
+def test_info_into_a_pipe_its_reader_closed_ends_quietly():
+    """``fsi-sph info CASE | head``: the reader has closed the pipe (here before the first
+    write, so that the write fails whatever the timing); the command ends with 141
+    (128 + SIGPIPE, as a shell reports it) and no traceback."""
+    import subprocess
+    import sys
+
+    proc = subprocess.Popen([sys.executable, "-m", "fsi_sph", "info", str(GATE)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc.stdout.close()  # the reader is gone
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=120) == 141, err
+    assert "Traceback" not in err and "BrokenPipe" not in err, err
