@@ -12,7 +12,7 @@ from numba import njit, prange
 
 from fsi_sph.solid.materials import energy_density, pk1
 from fsi_sph.sph import operators
-from fsi_sph.sph.kernels import kernel_dw, kernel_w
+from fsi_sph.sph.kernels import kernel_dw, kernel_w, pair_offset
 
 DET_MIN = 1e-6  # |det M| below this (relative to a full support) -> no correction
 
@@ -28,10 +28,7 @@ def reference_gradients(x0, vol, nbr_start, nbr_j, h, kind, out_gw, out_w, out_L
     """
     for i in prange(x0.shape[0]):
         for k in range(nbr_start[i], nbr_start[i + 1]):
-            j = nbr_j[k]
-            d0 = x0[i, 0] - x0[j, 0]
-            d1 = x0[i, 1] - x0[j, 1]
-            r = math.sqrt(d0 * d0 + d1 * d1)
+            j, d0, d1, r = pair_offset(x0, x0, nbr_j, i, k)
             dw = kernel_dw(kind, r, h)
             out_gw[k, 0] = dw * d0 / r
             out_gw[k, 1] = dw * d1 / r

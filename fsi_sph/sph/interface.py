@@ -11,11 +11,9 @@ neighbours); because ``grad_f W_fs = -grad_s W_sf`` the two sums cancel pair by 
 momentum exchanged sums to zero to round-off.
 """
 
-import math
-
 from numba import njit, prange
 
-from fsi_sph.sph.kernels import kernel_dw, kernel_w
+from fsi_sph.sph.kernels import kernel_dw, kernel_w, pair_offset
 
 
 @njit(cache=True, parallel=True)
@@ -33,10 +31,7 @@ def pair_pressure_forces(xd, pd, vold, xs, ps, vols, nbr_start, nbr_j, h, kind, 
         f0 = 0.0
         f1 = 0.0
         for k in range(nbr_start[i], nbr_start[i + 1]):
-            j = nbr_j[k]
-            d0 = xd[i, 0] - xs[j, 0]
-            d1 = xd[i, 1] - xs[j, 1]
-            r = math.sqrt(d0 * d0 + d1 * d1)
+            j, d0, d1, r = pair_offset(xd, xs, nbr_j, i, k)
             if r < 1e-12 * h:
                 continue
             c = vols[j] * (pd[i] + ps[j]) * kernel_dw(kind, r, h) / r
@@ -73,10 +68,7 @@ def rigid_mode_terms(x_s, vol_s, x_f, vol_f, sf_start, sf_j, h, kind, scale, M, 
         r0 = 0.0
         r1 = 0.0
         for k in range(sf_start[i], sf_start[i + 1]):
-            j = sf_j[k]
-            d0 = x_s[i, 0] - x_f[j, 0]
-            d1 = x_s[i, 1] - x_f[j, 1]
-            r = math.sqrt(d0 * d0 + d1 * d1)
+            j, d0, d1, r = pair_offset(x_s, x_f, sf_j, i, k)
             wt = kernel_w(kind, r, h)
             sw += wt
             r0 += wt * d0

@@ -78,3 +78,15 @@ def kernel_dw(kind, r, h):
     if kind == WENDLAND_C2:
         return wendland_dw(r, h)
     return cubic_dw(r, h)
+
+
+@njit(cache=True, inline="always")
+def pair_offset(xd, xs, nbr_j, i, k):
+    """Entry ``k`` of row ``i`` of a CSR neighbour list: the source ``j = nbr_j[k]``, the
+    offset ``x_i - x_j`` (destination points ``xd``, sources ``xs``) and its length ``r``
+    (the kernel gradient convention: ``grad W_ij = dW/dr (x_i - x_j) / r``). The pair loops
+    of every body share it."""
+    j = nbr_j[k]
+    d0 = xd[i, 0] - xs[j, 0]
+    d1 = xd[i, 1] - xs[j, 1]
+    return j, d0, d1, math.sqrt(d0 * d0 + d1 * d1)

@@ -4,11 +4,9 @@ Numba's cache does not see changes to functions imported from another file: afte
 this module, delete ``__pycache__`` (DESIGN.md §7).
 """
 
-import math
-
 from numba import njit, prange
 
-from fsi_sph.sph.kernels import kernel_dw
+from fsi_sph.sph.kernels import kernel_dw, pair_offset
 
 
 @njit(cache=True, parallel=True)
@@ -23,10 +21,7 @@ def correction_matrices(x, vol, nbr_start, nbr_j, h, kind, det_min, out_L):
         m10 = 0.0
         m11 = 0.0
         for k in range(nbr_start[i], nbr_start[i + 1]):
-            j = nbr_j[k]
-            d0 = x[i, 0] - x[j, 0]
-            d1 = x[i, 1] - x[j, 1]
-            r = math.sqrt(d0 * d0 + d1 * d1)
+            j, d0, d1, r = pair_offset(x, x, nbr_j, i, k)
             if r < 1e-12 * h:
                 continue
             dw = kernel_dw(kind, r, h)

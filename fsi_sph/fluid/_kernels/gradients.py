@@ -8,7 +8,7 @@ import numpy as np
 from numba import njit, prange
 
 from fsi_sph.sph import operators
-from fsi_sph.sph.kernels import kernel_dw, kernel_w
+from fsi_sph.sph.kernels import kernel_dw, kernel_w, pair_offset
 
 DET_MIN = 0.05  # |det M| below this (full support: ~1) -> no kernel-gradient correction
 
@@ -118,10 +118,7 @@ def velocity_divergence(x, v, vol, nbr_start, nbr_j, nf, h, kind, grad_scale, ou
     for i in prange(nf):
         s = 0.0
         for k in range(nbr_start[i], nbr_start[i + 1]):
-            j = nbr_j[k]
-            d0 = x[i, 0] - x[j, 0]
-            d1 = x[i, 1] - x[j, 1]
-            r = math.sqrt(d0 * d0 + d1 * d1)
+            j, d0, d1, r = pair_offset(x, x, nbr_j, i, k)
             if r < 1e-12 * h:
                 continue
             dw = kernel_dw(kind, r, h) / r
@@ -137,10 +134,7 @@ def wall_normals(xw, vol, nbr_start, nbr_j, h, kind, out_n):
         g0 = 0.0
         g1 = 0.0
         for k in range(nbr_start[i], nbr_start[i + 1]):
-            j = nbr_j[k]
-            d0 = xw[i, 0] - xw[j, 0]
-            d1 = xw[i, 1] - xw[j, 1]
-            r = math.sqrt(d0 * d0 + d1 * d1)
+            j, d0, d1, r = pair_offset(xw, xw, nbr_j, i, k)
             if r < 1e-12 * h:
                 continue
             dw = kernel_dw(kind, r, h) / r

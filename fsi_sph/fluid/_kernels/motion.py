@@ -6,7 +6,7 @@ import math
 from numba import njit, prange
 
 from fsi_sph.fluid._kernels.surface import NEAR_SURFACE, SPLASHED, SURFACE
-from fsi_sph.sph.kernels import kernel_dw, kernel_w
+from fsi_sph.sph.kernels import kernel_dw, kernel_w, pair_offset
 
 
 @njit(cache=True, parallel=True)
@@ -66,10 +66,7 @@ def shift_vectors(x, v, vol, nbr_start, nbr_j, nf, h, kind, model, coef, dt, cap
         s0 = 0.0
         s1 = 0.0
         for k in range(nbr_start[i], nbr_start[i + 1]):
-            j = nbr_j[k]
-            d0 = x[i, 0] - x[j, 0]
-            d1 = x[i, 1] - x[j, 1]
-            r = math.sqrt(d0 * d0 + d1 * d1)
+            j, d0, d1, r = pair_offset(x, x, nbr_j, i, k)
             if r < 1e-12 * h:
                 continue
             if model != 1:

@@ -5,7 +5,7 @@ import math
 
 from numba import njit, prange
 
-from fsi_sph.sph.kernels import kernel_dw, kernel_w
+from fsi_sph.sph.kernels import kernel_dw, kernel_w, pair_offset
 
 
 @njit(cache=True)
@@ -153,10 +153,7 @@ def ppe_fill(x, vol, alpha, source, L, consistent, f_start, f_j, w_start, w_j, n
             e = lo + 1
             rhs = 0.0
             for k in range(w_start[w], w_start[w + 1]):
-                j = w_j[k]
-                d0 = x[i, 0] - x[j, 0]
-                d1 = x[i, 1] - x[j, 1]
-                r = math.sqrt(d0 * d0 + d1 * d1)
+                j, d0, d1, r = pair_offset(x, x, w_j, i, k)
                 wt = 0.0
                 if sw > 0.0:
                     wt = kernel_w(kind, r, h) / sw
@@ -190,6 +187,32 @@ def wall_floor(p_w, p_i, r0, r1, rg0, rg1):
     return max(p_w, p_i + rg0 * r0 + rg1 * r1)
 
 
+@njit(cache=True, inline="always")
+def _pressure_pair_sum(x, p, vol, nbr_start, nbr_j, i, h, kind, jmax, floored, floor_row, rg,
+                       own):
+    """``sum_j V_j (p_j + own p_i) grad W_ij`` over row ``i``'s sources ``j < jmax`` (``own``
+    +1: the conservative pair sum [F 10], -1: the difference form [F 7]), the sources with
+    ``floored[j]`` on a row with ``floor_row[i]`` taken at :func:`wall_floor`."""
+    s0 = 0.0
+    s1 = 0.0
+    for k in range(nbr_start[i], nbr_start[i + 1]):
+        j = nbr_j[k]
+        if j >= jmax:
+            continue
+        d0 = x[i, 0] - x[j, 0]
+        d1 = x[i, 1] - x[j, 1]
+        r = math.sqrt(d0 * d0 + d1 * d1)
+        if r < 1e-12 * h:
+            continue
+        pj = p[j]
+        if floored[j] and floor_row[i]:
+            pj = wall_floor(pj, p[i], -d0, -d1, rg[j, 0], rg[j, 1])
+        f = vol[j] * (pj + own * p[i]) * kernel_dw(kind, r, h) / r
+        s0 += f * d0
+        s1 += f * d1
+    return s0, s1
+
+
 @njit(cache=True, parallel=True)
 def pressure_gradient(x, p, vol, nbr_start, nbr_j, nf, h, kind, grad_scale, jmax, floored,
                       floor_row, rg, out_grad):
@@ -200,23 +223,8 @@ def pressure_gradient(x, p, vol, nbr_start, nbr_j, nf, h, kind, grad_scale, jmax
     sources with ``floored[j]`` on rows with ``floor_row[i]`` as in
     :func:`corrected_pressure_gradient`."""
     for i in prange(nf):
-        s0 = 0.0
-        s1 = 0.0
-        for k in range(nbr_start[i], nbr_start[i + 1]):
-            j = nbr_j[k]
-            if j >= jmax:
-                continue
-            d0 = x[i, 0] - x[j, 0]
-            d1 = x[i, 1] - x[j, 1]
-            r = math.sqrt(d0 * d0 + d1 * d1)
-            if r < 1e-12 * h:
-                continue
-            pj = p[j]
-            if floored[j] and floor_row[i]:
-                pj = wall_floor(pj, p[i], -d0, -d1, rg[j, 0], rg[j, 1])
-            f = vol[j] * (p[i] + pj) * kernel_dw(kind, r, h) / r
-            s0 += f * d0
-            s1 += f * d1
+        s0, s1 = _pressure_pair_sum(x, p, vol, nbr_start, nbr_j, i, h, kind, jmax, floored,
+                                    floor_row, rg, 1.0)
         out_grad[i, 0] = grad_scale * s0
         out_grad[i, 1] = grad_scale * s1
 
@@ -234,22 +242,7 @@ def corrected_pressure_gradient(x, p, vol, L, nbr_start, nbr_j, nf, h, kind, jma
     one entry per stacked row, ``floor_row`` one per fluid row (``floored`` all False: no
     floor)."""
     for i in prange(nf):
-        s0 = 0.0
-        s1 = 0.0
-        for k in range(nbr_start[i], nbr_start[i + 1]):
-            j = nbr_j[k]
-            if j >= jmax:
-                continue
-            d0 = x[i, 0] - x[j, 0]
-            d1 = x[i, 1] - x[j, 1]
-            r = math.sqrt(d0 * d0 + d1 * d1)
-            if r < 1e-12 * h:
-                continue
-            pj = p[j]
-            if floored[j] and floor_row[i]:
-                pj = wall_floor(pj, p[i], -d0, -d1, rg[j, 0], rg[j, 1])
-            f = vol[j] * (pj - p[i]) * kernel_dw(kind, r, h) / r
-            s0 += f * d0
-            s1 += f * d1
+        s0, s1 = _pressure_pair_sum(x, p, vol, nbr_start, nbr_j, i, h, kind, jmax, floored,
+                                    floor_row, rg, -1.0)
         out_grad[i, 0] = L[i, 0, 0] * s0 + L[i, 0, 1] * s1
         out_grad[i, 1] = L[i, 1, 0] * s0 + L[i, 1, 1] * s1

@@ -5,7 +5,7 @@ import math
 
 from numba import njit, prange
 
-from fsi_sph.sph.kernels import kernel_dw, kernel_w
+from fsi_sph.sph.kernels import kernel_dw, kernel_w, pair_offset
 
 INTERIOR = 0
 NEAR_SURFACE = 1
@@ -25,10 +25,7 @@ def position_divergence(x, vol, nbr_start, nbr_j, h, kind, out_divr, out_grad_c,
         g1 = 0.0
         sw = vol[i] * kernel_w(kind, 0.0, h)
         for k in range(nbr_start[i], nbr_start[i + 1]):
-            j = nbr_j[k]
-            d0 = x[i, 0] - x[j, 0]
-            d1 = x[i, 1] - x[j, 1]
-            r = math.sqrt(d0 * d0 + d1 * d1)
+            j, d0, d1, r = pair_offset(x, x, nbr_j, i, k)
             if r < 1e-12 * h:
                 continue
             dw = kernel_dw(kind, r, h)

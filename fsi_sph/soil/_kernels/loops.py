@@ -5,7 +5,7 @@ import math
 
 from numba import njit
 
-from fsi_sph.sph.kernels import kernel_dw, kernel_w
+from fsi_sph.sph.kernels import kernel_dw, kernel_w, pair_offset
 
 DET_MIN = 1e-3  # correction matrix with |det| below this (full support ~ 1) -> identity
 
@@ -123,10 +123,7 @@ def velocity_gradient(n, x, v, vk, rho, m, nbr_start, nbr_j, h, kind, out_L, out
         m11 = 0.0
         drho = 0.0
         for k in range(nbr_start[i], nbr_start[i + 1]):
-            j = nbr_j[k]
-            d0 = x[i, 0] - x[j, 0]
-            d1 = x[i, 1] - x[j, 1]
-            r = math.sqrt(d0 * d0 + d1 * d1)
+            j, d0, d1, r = pair_offset(x, x, nbr_j, i, k)
             if r == 0.0:  # coincident pair: grad W(0) = 0
                 continue
             dw = kernel_dw(kind, r, h)
