@@ -6,14 +6,12 @@ F 13-14]. Numba loops are gather-only."""
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import scipy.sparse as sp
 from numba import njit, prange
 
 from fsi_sph.fluid import _kernels as K
-from fsi_sph.sph.kernels import kernel_dw, kernel_w
+from fsi_sph.sph.kernels import kernel_dw, kernel_w, pair_offset_sq
 
 
 @njit(cache=True)
@@ -22,11 +20,7 @@ def pair_coefficients(x, vol, nu, nbr_start, nbr_j, nf, h, kind, eta2, out_c):
     of the fluid rows' CSR list (``out_c`` aligned with ``nbr_j``)."""
     for i in range(nf):
         for k in range(nbr_start[i], nbr_start[i + 1]):
-            j = nbr_j[k]
-            d0 = x[i, 0] - x[j, 0]
-            d1 = x[i, 1] - x[j, 1]
-            r2 = d0 * d0 + d1 * d1
-            r = math.sqrt(r2)
+            j, d0, d1, r2, r = pair_offset_sq(x, x, nbr_j, i, k)
             if r < 1e-12 * h:
                 out_c[k] = 0.0
                 continue
@@ -45,11 +39,7 @@ def local_lap_scales(x, vol, nbr_start, nbr_j, nf, h, kind, eta2, divr, divr_ful
             continue
         m = 0.0
         for k in range(nbr_start[i], nbr_start[i + 1]):
-            j = nbr_j[k]
-            d0 = x[i, 0] - x[j, 0]
-            d1 = x[i, 1] - x[j, 1]
-            r2 = d0 * d0 + d1 * d1
-            r = math.sqrt(r2)
+            j, d0, d1, r2, r = pair_offset_sq(x, x, nbr_j, i, k)
             if r < 1e-12 * h:
                 continue
             m -= 2.0 * vol[j] * r * kernel_dw(kind, r, h) * r2 / (r2 + eta2)

@@ -90,3 +90,14 @@ def pair_offset(xd, xs, nbr_j, i, k):
     d0 = xd[i, 0] - xs[j, 0]
     d1 = xd[i, 1] - xs[j, 1]
     return j, d0, d1, math.sqrt(d0 * d0 + d1 * d1)
+
+
+@njit(cache=True, inline="always")
+def pair_offset_sq(xd, xs, nbr_j, i, k):
+    """:func:`pair_offset` with the squared length as well: ``(j, d0, d1, r^2, r)`` (the
+    Morris terms divide by ``r^2 + eta^2``)."""
+    j = nbr_j[k]
+    d0 = xd[i, 0] - xs[j, 0]
+    d1 = xd[i, 1] - xs[j, 1]
+    r2 = d0 * d0 + d1 * d1
+    return j, d0, d1, r2, math.sqrt(r2)

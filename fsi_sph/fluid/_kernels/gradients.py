@@ -8,7 +8,7 @@ import numpy as np
 from numba import njit, prange
 
 from fsi_sph.sph import operators
-from fsi_sph.sph.kernels import kernel_dw, kernel_w, pair_offset
+from fsi_sph.sph.kernels import kernel_dw, kernel_w, pair_offset, pair_offset_sq
 
 DET_MIN = 0.05  # |det M| below this (full support: ~1) -> no kernel-gradient correction
 
@@ -97,11 +97,7 @@ def predict_velocity(x, v, vol, nu, nbr_start, nbr_j, nf, h, kind, eta2, g0, g1,
         a0 = 0.0
         a1 = 0.0
         for k in range(nbr_start[i], nbr_start[i + 1]):
-            j = nbr_j[k]
-            d0 = x[i, 0] - x[j, 0]
-            d1 = x[i, 1] - x[j, 1]
-            r2 = d0 * d0 + d1 * d1
-            r = math.sqrt(r2)
+            j, d0, d1, r2, r = pair_offset_sq(x, x, nbr_j, i, k)
             if r < 1e-12 * h:
                 continue
             f = vol[j] * (nu[i] + nu[j]) * r * kernel_dw(kind, r, h) / (r2 + eta2)

@@ -5,7 +5,7 @@ import math
 
 from numba import njit, prange
 
-from fsi_sph.sph.kernels import kernel_dw, kernel_w, pair_offset
+from fsi_sph.sph.kernels import kernel_dw, kernel_w, pair_offset, pair_offset_sq
 
 
 @njit(cache=True)
@@ -97,11 +97,7 @@ def ppe_fill(x, vol, alpha, source, L, consistent, f_start, f_j, w_start, w_j, n
             for k in range(f_start[i], f_start[i + 1]):
                 if not consistent[i]:
                     break
-                j = f_j[k]
-                d0 = x[i, 0] - x[j, 0]
-                d1 = x[i, 1] - x[j, 1]
-                r2 = d0 * d0 + d1 * d1
-                r = math.sqrt(r2)
+                j, d0, d1, r2, r = pair_offset_sq(x, x, f_j, i, k)
                 if r > 1e-12 * h:
                     c = -2.0 * lap_scale * vol[j] * r * kernel_dw(kind, r, h) / (r2 + eta2)
                     e0 -= c * d0
@@ -112,11 +108,7 @@ def ppe_fill(x, vol, alpha, source, L, consistent, f_start, f_j, w_start, w_j, n
             diag = 0.0
             e = lo + 1
             for k in range(f_start[i], f_start[i + 1]):
-                j = f_j[k]
-                d0 = x[i, 0] - x[j, 0]
-                d1 = x[i, 1] - x[j, 1]
-                r2 = d0 * d0 + d1 * d1
-                r = math.sqrt(r2)
+                j, d0, d1, r2, r = pair_offset_sq(x, x, f_j, i, k)
                 a = 0.0
                 if r > 1e-12 * h:
                     dw = kernel_dw(kind, r, h)
