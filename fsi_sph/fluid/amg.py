@@ -222,6 +222,7 @@ class _Smoother:
     def __init__(self, A, block=None):
         self._indices = np.empty(0, dtype=np.int32)
         self._data = np.empty(0)
+        self.dinv = np.empty(0)
         self.update(A, block)
 
     def update(self, A, block=None):
@@ -231,7 +232,8 @@ class _Smoother:
         n = A.shape[0]
         self.n = n
         self.blocks = _Blocks(block) if block is not None else None
-        self.dinv = np.empty(n)
+        if len(self.dinv) != n:  # (a refresh of the same size writes into the last one)
+            self.dinv = np.empty(n)
         if block is not None:
             self.indptr, self.indices, self.data = A.indptr, A.indices, A.data
             _inverse_diagonal(A.indptr, A.indices, A.data, self.dinv)

@@ -86,10 +86,8 @@ def pair_offset(xd, xs, nbr_j, i, k):
     offset ``x_i - x_j`` (destination points ``xd``, sources ``xs``) and its length ``r``
     (the kernel gradient convention: ``grad W_ij = dW/dr (x_i - x_j) / r``). The pair loops
     of every body share it."""
-    j = nbr_j[k]
-    d0 = xd[i, 0] - xs[j, 0]
-    d1 = xd[i, 1] - xs[j, 1]
-    return j, d0, d1, math.sqrt(d0 * d0 + d1 * d1)
+    j, d0, d1, _, r = pair_offset_sq(xd, xs, nbr_j, i, k)
+    return j, d0, d1, r
 
 
 @njit(cache=True, inline="always")

@@ -188,13 +188,8 @@ def _pressure_pair_sum(x, p, vol, nbr_start, nbr_j, i, h, kind, jmax, floored, f
     s0 = 0.0
     s1 = 0.0
     for k in range(nbr_start[i], nbr_start[i + 1]):
-        j = nbr_j[k]
-        if j >= jmax:
-            continue
-        d0 = x[i, 0] - x[j, 0]
-        d1 = x[i, 1] - x[j, 1]
-        r = math.sqrt(d0 * d0 + d1 * d1)
-        if r < 1e-12 * h:
+        j, d0, d1, r = pair_offset(x, x, nbr_j, i, k)
+        if j >= jmax or r < 1e-12 * h:
             continue
         pj = p[j]
         if floored[j] and floor_row[i]:
