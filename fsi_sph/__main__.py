@@ -197,8 +197,24 @@ def _print_scene(cfg, est, sim):
     print(f"first stable time step: {dt:.3g} s"
           + (" (sub-steps: " + ", ".join(f"{n} {k}" for n, k in subs.items()) + ")"
              if subs and sim.fluid is not None else ""))
-    print(f"steps to t_end = {cfg.case.t_end:g} s: about {math.ceil(cfg.case.t_end / dt)} "
-          "(an estimate: a faster flow takes shorter steps)")
+    dt_flow, why = _flow_step(sim, dt)
+    print(f"steps to t_end = {cfg.case.t_end:g} s: about {math.ceil(cfg.case.t_end / dt_flow)} "
+          f"({why})")
+
+
+def _flow_step(sim, dt):
+    """The fluid's advective step once it flows at the speed of its own height falling,
+    ``sqrt(2 g H)`` (the dam break's front runs at about this speed), for the step estimate."""
+    fluid = sim.fluid
+    if fluid is None or fluid.body.n == 0:
+        return dt, "at the first step"
+    g = math.hypot(*(float(c) for c in fluid.gravity))
+    y = fluid.body["x"][:, 1]
+    u = math.sqrt(2.0 * g * float(y.max() - y.min()))
+    if u <= 0.0:
+        return dt, "at the first step"
+    return min(dt, fluid.cfg.cfl * fluid.h / u), (
+        f"an estimate: the step of a flow at {u:.2g} m/s, the fluid's height falling")
 
 
 def cmd_plot(args):

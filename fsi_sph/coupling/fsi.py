@@ -21,16 +21,25 @@ import math
 
 import numpy as np
 
+from fsi_sph.errors import SimulationError
 from fsi_sph.particles import FieldSpec
 from fsi_sph.sph import interface as K
 
 
-def substep_count(dt_f, dt_s, fixed=None):
+def substep_count(dt_f, dt_s, fixed=None, name="structure"):
     """Sub-steps of a structure within one fluid step: ``fixed`` if the case sets it, else
-    ``ceil(dt_f / dt_s)`` (at least 1) [F 48 and text]."""
-    if fixed is not None:
-        return int(fixed)
-    return max(1, math.ceil(dt_f / dt_s - 1e-12))
+    ``ceil(dt_f / dt_s)`` (at least 1) [F 48 and text]. A fixed count whose solid step
+    would exceed the solid's stability limit is refused with the numbers (the solid would
+    blow up within a few sub-steps)."""
+    if fixed is None:
+        return max(1, math.ceil(dt_f / dt_s - 1e-12))
+    if dt_f / fixed > dt_s * (1 + 1e-9):
+        raise SimulationError(
+            f"coupling.substeps = {fixed} gives {name} a solid step of {dt_f / fixed:.3g} s "
+            f"in this fluid step of {dt_f:.3g} s, above its stability limit {dt_s:.3g} s: "
+            f"leave coupling.substeps out (automatic: {math.ceil(dt_f / dt_s - 1e-12)} here) "
+            f"or bound the fluid step with fluid.dt_max")
+    return int(fixed)
 
 
 def interface_forces(x_s, p_s, vol_s, x_f, p_f, vol_f, sf_start, sf_j, fs_start, fs_j, h,
@@ -167,7 +176,7 @@ class FsiCoupling:
         for b, sl in zip(self.bodies, self.slices, strict=True):
             b.body["f_ext"][:] = force[sl]
             v0 = b.body["v"].copy()
-            n = substep_count(dt, b.stable_dt(), self.cfg.substeps)
+            n = substep_count(dt, b.stable_dt(), self.cfg.substeps, b.name)
             self.v_bar[sl] = advance_structure(b, dt, n)
             self.a_bar[sl] = (b.body["v"] - v0) / dt
             b.body["v_bar"][:] = self.v_bar[sl]

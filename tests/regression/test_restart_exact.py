@@ -24,7 +24,7 @@ CASES = Path(__file__).resolve().parents[2] / "cases"
 FAMILIES = {
     "fluid": ("dam_break.toml", ["case.dx=0.1", "case.t_end=0.3", "case.output_every=0.1"]),
     "coupled_elastic": ("dam_break_elastic_gate.toml",
-                        ["case.dx=0.0025", "case.t_end=0.006", "case.output_every=0.002"]),
+                        ["case.dx=0.0025", "case.t_end=0.04", "case.output_every=0.01"]),
     "granular_mu_i": ("granular_collapse.toml",
                       ["case.dx=0.02", "case.t_end=0.08", "case.output_every=0.02"]),
     "drucker_prager_soil": ("column_collapse.toml",

@@ -168,8 +168,10 @@ def test_info_reports_the_scene(capsys):
     text = "\n".join(lines)
     assert "particles: gate 68, fluid 2240, walls 1298 (total 3606)" in text
     assert "memory estimate: 395 MiB" in text
-    assert "first stable time step: 0.0002 s (sub-steps: gate 26)" in text
-    assert "steps to t_end = 0.4 s: about 2000" in text
+    assert "first stable time step: 0.00437 s (sub-steps: gate 554)" in text
+    # the flow at sqrt(2 g H), H = 0.14 m of water: 1.66 m/s, cfl h / u = 3.65e-4 s
+    assert ("steps to t_end = 0.4 s: about 1095 (an estimate: the step of a flow at 1.6 m/s"
+            in text)
 
 
 def test_fluid_over_a_soil_polygon_is_refused_and_beside_it_allowed(tmp_path, capsys):

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from fsi_sph.coupling.fsi import advance_structure, interface_forces, interface_power, substep_count
+from fsi_sph.errors import SimulationError
 from fsi_sph.neighbors import find_neighbors
 from tests.reference_impl import cubic_dw
 
@@ -75,6 +76,12 @@ def test_substep_count():
     assert substep_count(1e-3, 1e-3) == 1
     assert substep_count(1e-3, 5e-3) == 1
     assert substep_count(1e-3, 3e-5, fixed=100) == 100
+
+
+def test_a_fixed_substep_count_above_the_stability_limit_is_refused_with_the_numbers():
+    with pytest.raises(SimulationError, match=r"coupling.substeps = 10 gives gate a solid step "
+                       r"of 0.0001 s .* above its stability limit 3e-05 s.*automatic: 34"):
+        substep_count(1e-3, 3e-5, fixed=10, name="gate")
 
 
 def test_advance_structure_averages_velocity(make_body):
