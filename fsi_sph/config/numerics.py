@@ -26,8 +26,9 @@ coupling.md hold the full record):
   stays the advective one: a 2e-4 s bound for clamped structures was dropped when the obstacle
   ladder at the advective step came out 37.0 / 42.2 / 39.8 / 39.1 mm over 3 / 4 / 6 / 8 across
   (inside the published 39-51 mm at the finest rung, 38.9 mm with the bound) and the gate's
-  finest rungs 40.3 mm as with it, in a third of the wall time; free bodies gain energy with the number
-  of steps (a pontoon: 7.6 % at 2e-4 s, 0.45 % at the advective step), docs/numerics/coupling.md.
+  finest rungs 40.3 mm as with it, in a third of the wall time; free bodies gain energy with
+  the number of steps (a pontoon: 7.6 % at 2e-4 s, 0.45 % at the advective step),
+  docs/numerics/coupling.md.
 - **Open boundaries** (``[[fluid.inflow]]``, ``[[fluid.outflow]]``): two-signed density
   relaxation 0.05 (without it the Poiseuille channel lost 5 % of its particles by 8 s and ran
   8 % fast; with the gap rows H/dx = 10 keeps its particles, without them it lost 6 %) and
