@@ -12,13 +12,14 @@ coupling.md hold the full record):
 - **Every fluid** shifts its particles: without shifting the dam break's slow corner clumped
   (div r up to 2.6) and the Bagnold layer lost its lattice order within 0.5 s. A free-surface
   flow of a Newtonian fluid takes the fixed-coefficient Fickian law (the velocity-scaled Lind
-  form does not act where the flow is slow, and the dam break diverged with it).
+  form does not act where the flow is slow, and the dam break diverged with it). (Every fluid
+  also relaxes its density error both ways: not a pick but the default of
+  ``FluidSection.density_relaxation``, since every scene measured needs it.)
 - **A mu(I) granular material** (``fluid.material.viscosity = "mu_i"``): the implicit
   viscous step with the stress-divergence operator (the apparent viscosity reaches eta_max),
-  the incremental projection, the trapezoidal move, two-signed density relaxation 0.05 with the
-  gap rows, walls without suction, grain collisions, div-r-only surface detection, and
-  Taylor-corrected shifting without the energy cap: the set the Bagnold layer and the Lube
-  collapses are validated with (docs/numerics/granular.md).
+  the incremental projection, the trapezoidal move, walls without suction, grain collisions,
+  div-r-only surface detection, and Taylor-corrected shifting without the energy cap: the set
+  the Bagnold layer and the Lube collapses are validated with (docs/numerics/granular.md).
 - **A structure coupled to the fluid** (``[coupling]``): the conservative pressure gradient
   on the rows beside the structure (the interface force balances only against the same pair
   form), the collision model (the shallow water draining past the gate and the obstacle threw
@@ -29,11 +30,8 @@ coupling.md hold the full record):
   finest rungs 40.3 mm as with it, in a third of the wall time; free bodies gain energy with
   the number of steps (a pontoon: 7.6 % at 2e-4 s, 0.45 % at the advective step),
   docs/numerics/coupling.md.
-- **Open boundaries** (``[[fluid.inflow]]``, ``[[fluid.outflow]]``): two-signed density
-  relaxation 0.05 (without it the Poiseuille channel lost 5 % of its particles by 8 s and ran
-  8 % fast; with the gap rows H/dx = 10 keeps its particles, without them it lost 6 %) and
-  velocity-scaled Fickian shifting (without shifting the PPE diverged within
-  3 s); docs/validation/channel_poiseuille.md.
+- **Open boundaries** (``[[fluid.inflow]]``, ``[[fluid.outflow]]``): velocity-scaled Fickian
+  shifting (without shifting the PPE diverged within 3 s); docs/validation/channel_poiseuille.md.
 - **A cohesive soil** (``cohesion > 0``): artificial stress against the tensile instability
   (a cohesive soil carries tension, where the SPH particles clump without it).
 
@@ -69,9 +67,6 @@ _GRANULAR_FLUID = {
     "viscous_operator": "stress",
     "projection": "incremental",
     "position_update": "trapezoid",
-    "density_relaxation": 0.05,
-    "density_relaxation_sign": "both",
-    "relaxation_gap_rows": True,
     "wall_suction": False,
     "surface_scan": False,
     "collision": {},
@@ -86,8 +81,6 @@ _COUPLED_SHIFTING = {"model": "fickian"}
 
 _NEWTONIAN_SHIFTING = {"model": "fickian_fixed"}
 
-_THROUGH_FLOW_FLUID = {"density_relaxation": 0.05, "density_relaxation_sign": "both",
-                       "relaxation_gap_rows": True}
 _THROUGH_FLOW_SHIFTING = {"model": "fickian"}
 THROUGH_FLOW = "open boundaries (inflow, outflow)"
 
@@ -121,8 +114,6 @@ def _fluid_picks(data: dict, picks: list[Pick]) -> None:
         _switch_off(fluid, key)
     if granular:
         _fill(fluid, _GRANULAR_FLUID, "fluid", GRANULAR, picks)
-    if through_flow and not granular:
-        _fill(fluid, _THROUGH_FLOW_FLUID, "fluid", THROUGH_FLOW, picks)
     if coupled and not granular:
         _fill(fluid, _COUPLED_FLUID, "fluid", COUPLED, picks)
     # the shifting law: the first of these the scene declares

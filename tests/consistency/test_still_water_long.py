@@ -67,15 +67,34 @@ def test_still_water_one_step_map_is_not_amplifying():
                             "fluid.shifting=false"]) > 1.02
 
 
-def test_small_tank_stays_at_rest_for_10_s():
-    """10 x 10 particles at the force limit's step for 10 s (about 800 steps): before the fix
-    the fastest particle reached 1e-4 m/s at 2.8 s and the run blew up at 4.5 s."""
-    # the solve at 1e-8 (the tank's setting when this was measured): at the default 1e-6 the
-    # speed holds at the solver's noise, 2.5e-6 m/s, with or without shifting (no growth)
-    sim = small_tank(0.2, ["case.t_end=10.0", "fluid.ppe.rtol=1e-8"])
-    top = 0.0
+def _fastest_over_10_s(extra=()):
+    sim = small_tank(0.2, ["case.t_end=10.0", "fluid.ppe.rtol=1e-8", *extra])
+    top, at_5 = 0.0, None
     while sim.t < 10.0 - 1e-9:
         sim.step(dt_max=10.0 - sim.t, to_end=True)
         top = max(top, sim.fluid.max_speed())
+        if at_5 is None and sim.t >= 5.0:
+            at_5 = top
     sim.check()
-    assert top < 1e-6
+    return at_5, top
+
+
+def test_small_tank_stays_at_rest_for_10_s():
+    """10 x 10 particles at the force limit's step for 10 s (about 800 steps): before the fix
+    the fastest particle reached 1e-4 m/s at 2.8 s and the run blew up at 4.5 s. The
+    projection alone (no density relaxation) holds the solver's noise."""
+    # the solve at 1e-8 (the tank's setting when this was measured): at the default 1e-6 the
+    # speed holds at the solver's noise, 2.5e-6 m/s, with or without shifting (no growth)
+    assert _fastest_over_10_s(["fluid.density_relaxation=0"])[1] < 1e-6
+
+
+def test_small_tank_on_the_defaults_is_stirred_slowly():
+    """With the default density relaxation (both signs, 2026-12-06) the same tank is stirred:
+    the shifting reshapes the supports at the surface's corners (in a 1 m tank without the
+    relaxation, interior kernel sums there fall to -2.3e-4 by 0.5 s) and the relaxation
+    answers. Measured: fastest 3.2e-5 m/s by 0.5 s, 4.5e-5 by 4 s, 5.4e-5 by 6 s, 7.0e-5 by
+    10 s (1e-5 sqrt(g H)): a slow drift, not the exponential growth of the instability above
+    (1e-4 by 2.8 s, then a blow-up)."""
+    at_5, top = _fastest_over_10_s()
+    assert top < 1e-4
+    assert top < 2.0 * at_5  # no growth faster than linear

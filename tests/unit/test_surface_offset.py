@@ -33,6 +33,7 @@ projection = "{projection}"
 surface_offset = {offset}
 surface_scan = false
 shifting = false
+density_relaxation = 0.0  # the offset alone (the relaxation stirs still water slightly)
 [fluid.material]
 rho0 = {RHO}
 nu = 1.0e-6
@@ -85,6 +86,7 @@ blocks = [{ origin = [0.0, 0.0], size = [0.1, 0.1] }]
 surface_offset = 0.5
 surface_scan = false
 shifting = false
+density_relaxation = 0.0  # the offset alone (the relaxation stirs still water slightly)
 [fluid.material]
 rho0 = 1500.0
 viscosity = "mu_i"

@@ -30,6 +30,7 @@ gravity = [0.0, -{G}]
 [fluid]
 blocks = [{{ origin = [0.0, 0.0], size = [{10 * DX}, {4 * DX}] }}]
 dt_max = 1.0e-3
+density_relaxation = 0.0  # the contact rule alone (the relaxation stirs still water slightly)
 wall_contact = "{contact}"
 [fluid.material]
 rho0 = {RHO}
