@@ -128,10 +128,9 @@ class RowRoles:
         """Number of fluid neighbours of each fluid row (periodic fluid images included),
         counted once per neighbour update (:meth:`assign` clears it)."""
         ps = self.ps
-        if self._n_fluid is None:
-            j = ps.ff_j[:ps.ff_start[ps.nf]]
-            inner = self.fluid_of[j] >= 0  # the fluid images are fluid neighbours too
-            self._n_fluid = np.bincount(self.row_of()[inner], minlength=ps.nf)
+        if self._n_fluid is None:  # (the fluid images are fluid neighbours too)
+            self._n_fluid = np.empty(ps.nf, dtype=np.int64)
+            K.fluid_neighbour_counts(ps.ff_start, ps.ff_j, self.fluid_of, self._n_fluid)
         return self._n_fluid
 
     def beside_walls(self):

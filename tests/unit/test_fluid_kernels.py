@@ -546,3 +546,16 @@ def test_fluid_sublists_keep_the_chosen_rows_fluid_neighbours_in_order(perturbed
         want = seg[fluid_of[seg] >= 0] if rows[i] else seg[:0]
         assert np.array_equal(out[start[i]:start[i + 1]], want)
     assert start[-1] == len(out)
+
+
+def test_fluid_neighbour_counts_match_a_numpy_count(rng):
+    """``K.fluid_neighbour_counts`` (the gap rows of the density relaxation,
+    ``RowRoles.fluid_neighbour_counts``) against a count in numpy."""
+    start = np.array([0, 3, 3, 7, 8])
+    j = rng.integers(0, 10, size=8)
+    fluid_of = np.where(rng.random(10) < 0.6, 0, -1)
+    got = np.empty(4, dtype=np.int64)
+    K.fluid_neighbour_counts(start, j, fluid_of, got)
+    want = [int(np.sum(fluid_of[j[start[i]:start[i + 1]]] >= 0)) for i in range(4)]
+    assert got.tolist() == want
+    assert got[1] == 0  # a row without neighbours

@@ -161,6 +161,17 @@ def shepard_at(points, x, p, nbr_start, nbr_j, h, kind, out):
         out[i] = sp / sw if sw > 0.0 else np.nan
 
 
+@njit(cache=True, parallel=True)
+def fluid_neighbour_counts(nbr_start, nbr_j, fluid_of, out_count):
+    """Number of fluid neighbours (``fluid_of[j] >= 0``) of each row ``i < len(out_count)``."""
+    for i in prange(out_count.shape[0]):
+        k = 0
+        for s in range(nbr_start[i], nbr_start[i + 1]):
+            if fluid_of[nbr_j[s]] >= 0:
+                k += 1
+        out_count[i] = k
+
+
 @njit(cache=True)
 def fluid_sublists(nbr_start, nbr_j, fluid_of, rows, out_start):
     """The pair lists restricted to the rows with ``rows[i]`` true and to fluid neighbours
