@@ -213,7 +213,7 @@ def _flow_step(sim, dt):
     u = math.sqrt(2.0 * g * float(y.max() - y.min()))
     if u <= 0.0:
         return dt, "at the first step"
-    return min(dt, fluid.cfg.cfl * fluid.h / u), (
+    return min(dt, fluid.advective_dt(u)), (
         f"an estimate: the step of a flow at {u:.2g} m/s, the fluid's height falling")
 
 

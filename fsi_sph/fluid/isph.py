@@ -216,7 +216,7 @@ class IncompressibleFluid(FluidParticles):
         dt = self.cfg.dt_max
         numax = float(np.max(b["nu"], initial=0.0))
         lim = self.dt_limits  # every limit, recorded (the implicit step drops the viscous one)
-        lim["advective"] = self.cfg.cfl * self.h / vmax if vmax > 0.0 else math.inf
+        lim["advective"] = self.advective_dt(vmax)
         lim["viscous"] = 0.125 * self.h * self.h / numax if numax > 0.0 else math.inf
         lim["force"] = 0.25 * math.sqrt(self.h / amax) if amax > 0.0 else math.inf
         lim["nu_max"] = numax
@@ -224,6 +224,10 @@ class IncompressibleFluid(FluidParticles):
         if self.cfg.viscous_step == "explicit":
             dt = min(dt, lim["viscous"])
         return dt
+
+    def advective_dt(self, speed):
+        """The advective limit ``cfl h / speed`` of [F 48] (infinite at rest)."""
+        return self.cfg.cfl * self.h / speed if speed > 0.0 else math.inf
 
     def update_neighbors(self):
         """CSR neighbour lists at the current positions, then the rows' roles."""

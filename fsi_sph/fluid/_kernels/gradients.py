@@ -161,15 +161,21 @@ def shepard_at(points, x, p, nbr_start, nbr_j, h, kind, out):
         out[i] = sp / sw if sw > 0.0 else np.nan
 
 
+@njit(cache=True, inline="always")
+def _fluid_count(nbr_start, nbr_j, fluid_of, i):
+    """Number of fluid neighbours (``fluid_of[j] >= 0``) of row ``i``."""
+    k = 0
+    for s in range(nbr_start[i], nbr_start[i + 1]):
+        if fluid_of[nbr_j[s]] >= 0:
+            k += 1
+    return k
+
+
 @njit(cache=True, parallel=True)
 def fluid_neighbour_counts(nbr_start, nbr_j, fluid_of, out_count):
     """Number of fluid neighbours (``fluid_of[j] >= 0``) of each row ``i < len(out_count)``."""
     for i in prange(out_count.shape[0]):
-        k = 0
-        for s in range(nbr_start[i], nbr_start[i + 1]):
-            if fluid_of[nbr_j[s]] >= 0:
-                k += 1
-        out_count[i] = k
+        out_count[i] = _fluid_count(nbr_start, nbr_j, fluid_of, i)
 
 
 @njit(cache=True)
@@ -180,11 +186,7 @@ def fluid_sublists(nbr_start, nbr_j, fluid_of, rows, out_start):
     n = out_start.shape[0] - 1
     out_start[0] = 0
     for i in range(n):
-        k = 0
-        if rows[i]:
-            for s in range(nbr_start[i], nbr_start[i + 1]):
-                if fluid_of[nbr_j[s]] >= 0:
-                    k += 1
+        k = _fluid_count(nbr_start, nbr_j, fluid_of, i) if rows[i] else 0
         out_start[i + 1] = out_start[i] + k
     out_j = np.empty(out_start[n], dtype=np.int64)
     for i in range(n):
