@@ -85,6 +85,8 @@ def _parser():
     f.add_argument("--out", help="output folder (default: runs/<case name>_fos)")
     f.add_argument("--set", dest="overrides", action="append", default=[], metavar="K=V")
     f.add_argument("--method", choices=["sph", "bishop"], default="sph")
+    f.add_argument("--tol", type=float,
+                   help="relative width of the final bracket of F (default 0.02)")
     f.add_argument("--threads", type=int)
     return p
 
@@ -315,7 +317,8 @@ def cmd_fos(args):
 
     _set_threads(args.threads)
     try:
-        return fos_command(args.case, args.body, args.out, args.overrides, args.method)
+        tol = {} if args.tol is None else {"tol": args.tol}
+        return fos_command(args.case, args.body, args.out, args.overrides, args.method, **tol)
     except SlopeInputError as e:
         raise UsageError(str(e)) from None
 

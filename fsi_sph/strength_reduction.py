@@ -29,7 +29,10 @@ from the case:
    a shallow slip that keeps sliding by millimetres has failed.
 5. **Bracket and bisection**: from ``[0.8, 1.25]`` times the limit-equilibrium factor of
    safety (Bishop, critical circle), widened until stable/failed, then bisected until
-   ``hi - lo <= tol lo``; the factor of safety is the bracket's mid point.
+   ``hi - lo <= tol lo``; the factor of safety is the bracket's mid point. The widening stops
+   at ``F_MAX`` and ``F_MIN``: a slope that still stands at ``F_MAX`` (or still fails at
+   ``F_MIN``) is reported as a bound, ``status`` ``"stands_past"`` (``"fails_below"``),
+   never as a number.
 """
 
 from __future__ import annotations
@@ -54,6 +57,8 @@ DAMPING_TG = 10.0  # mass damping xi = DAMPING_TG / t_g
 SETTLE_TG = 2.0    # geostatic stage, in t_g
 TRIAL_TG = 4.0     # one trial, in t_g
 TOL = 0.02         # bisection: hi - lo <= TOL lo
+F_MAX = 5.0        # a slope that stands at this F is reported as "FoS > F_MAX"
+F_MIN = 0.05       # ... and one that fails at this F as "FoS < F_MIN"
 RESOLVED = 0.85    # Shepard sum below which a particle is in the free-surface row
 
 
@@ -209,6 +214,47 @@ def advance(sim, t_end, on_step=None):
     return time.perf_counter() - t0, sim.particle_steps - ps0
 
 
+def search_bracket(trial, f_start, tol):
+    """The bracket ``(lo, hi, status)`` of the factor of safety: ``trial(F, left)`` is True
+    when the slope fails at ``F`` (``left``: an estimate of the trials still to make after
+    it; each ``F`` is tried once). From ``[0.8, 1.25] f_start`` (clipped to
+    ``[F_MIN, F_MAX]``), widened down until stable and up until failed, then bisected to
+    ``hi - lo <= tol lo``. ``status``: ``"bracketed"``, ``"stands_past"`` (stable at
+    ``F_MAX``: ``lo = F_MAX``, ``hi = None``), ``"fails_below"`` (failed at ``F_MIN``:
+    ``lo = None``, ``hi = F_MIN``)."""
+    seen = {}
+
+    def failed(F, left):
+        if F not in seen:
+            seen[F] = trial(F, left)
+        return seen[F]
+
+    hi = min(max(1.25 * f_start, F_MIN), F_MAX)
+    lo = max(min(0.8 * f_start, 0.8 * hi), F_MIN)
+    while failed(lo, 1 + bisections(lo, hi, tol)):  # widen downwards until stable
+        if lo <= F_MIN:
+            return None, lo, "fails_below"
+        hi, lo = lo, max(0.8 * lo, F_MIN)
+    while not failed(hi, bisections(lo, hi, tol)):  # widen upwards until it fails
+        if hi >= F_MAX:
+            return hi, None, "stands_past"
+        lo, hi = hi, min(1.25 * hi, F_MAX)
+    while hi - lo > tol * lo:
+        mid = 0.5 * (lo + hi)
+        if failed(mid, bisections(lo, hi, tol) - 1):
+            hi = mid
+        else:
+            lo = mid
+    return lo, hi, "bracketed"
+
+
+def bisections(lo, hi, tol):
+    """Bisections that take the bracket ``[lo, hi]`` to ``hi - lo <= tol lo``."""
+    if hi - lo <= tol * lo:
+        return 0
+    return math.ceil(math.log2((hi - lo) / (tol * lo)))
+
+
 def _u98(x, x_ref):
     return float(np.percentile(np.linalg.norm(x - x_ref, axis=1), 98))
 
@@ -243,12 +289,22 @@ class Result:
     geometry: dict
     settings: dict
     trials: list = field(default_factory=list)
+    status: str = "bracketed"  # or "stands_past" (FoS > bracket[0]), "fails_below" (< [1])
     wall_time_s: float = 0.0
     steps: int = 0
     particle_steps: int = 0
     x_geo: np.ndarray | None = None
     x_fail: np.ndarray | None = None
     eps_p_fail: np.ndarray | None = None
+
+    @property
+    def label(self):
+        """The answer in words: the value, or the bound it passed."""
+        if self.status == "stands_past":
+            return f"> {self.bracket[0]:.3g} (stands at F = {self.bracket[0]:.3g})"
+        if self.status == "fails_below":
+            return f"< {self.bracket[1]:.3g} (fails at F = {self.bracket[1]:.3g})"
+        return f"{self.fos:.4f}"
 
     def to_json(self):
         d = {k: v for k, v in asdict(self).items() if k not in ("x_geo", "x_fail", "eps_p_fail")}
@@ -294,10 +350,7 @@ def strength_reduction(case, body=None, overrides=(), tol=TOL, circle=None, on_t
         r["u98_m"], 100.0 * r["u98_m"] / H, r["growth_q3_m"], r["growth_q4_m"], r["verdict"],
         r["elapsed_s"]))
 
-    def trial(F):
-        for r in trials:  # the bracket's ends may be asked for again while widening
-            if r["F"] == F:
-                return r["verdict"] == "failed"
+    def trial(F, left):
         t0 = time.perf_counter()
         for k, v in saved.items():
             sb.body.arrays[k][...] = v
@@ -312,32 +365,23 @@ def strength_reduction(case, body=None, overrides=(), tol=TOL, circle=None, on_t
         g3, g4 = us[2] - us[1], us[3] - us[2]
         v = verdict(us[3], g3, g4, H)
         rec = {"F": F, "u98_m": us[3], "u98_quarters_m": us, "growth_q3_m": g3,
-               "growth_q4_m": g4, "verdict": v, "elapsed_s": time.perf_counter() - t0}
+               "growth_q4_m": g4, "verdict": v, "elapsed_s": time.perf_counter() - t0,
+               "trials_left_estimate": left}
         trials.append(rec)
         report(rec)
         if v == "failed" and (not fail_state or F < fail_state["F"]):
             fail_state.update(F=F, x=sb.body["x"].copy(), eps_p=sb.body["eps_p"].copy())
         return v == "failed"
 
-    lo, hi = 0.8 * circle.fos, 1.25 * circle.fos
-    while trial(lo) and lo > 1e-3:  # widen downwards until stable
-        hi, lo = lo, 0.8 * lo
-    while not trial(hi):  # widen upwards until it fails
-        lo, hi = hi, 1.25 * hi
-        if hi > 100.0:
-            raise SlopeInputError(f"soil body {body!r} does not fail even at F = {hi:.3g}")
-    while hi - lo > tol * lo:
-        mid = 0.5 * (lo + hi)
-        if trial(mid):
-            hi = mid
-        else:
-            lo = mid
+    lo, hi, status = search_bracket(trial, circle.fos, tol)
     res = Result(
-        body=body, dx=float(cfg.case.dx), n_particles=int(sb.body.n), fos=0.5 * (lo + hi),
-        bracket=[lo, hi], fos_bishop=float(circle.fos), circle=asdict(circle),
+        body=body, dx=float(cfg.case.dx), n_particles=int(sb.body.n),
+        fos=0.5 * (lo + hi) if status == "bracketed" else None, bracket=[lo, hi],
+        status=status, fos_bishop=float(circle.fos), circle=asdict(circle),
         geometry={**asdict(geo), "beta_deg": geo.beta_deg},
         settings={"t_g_s": t_g, "damping_per_s": xi, "settle_s": SETTLE_TG * t_g,
-                  "trial_s": TRIAL_TG * t_g, "tol": tol, "fail_decel": FAIL_DECEL,
+                  "trial_s": TRIAL_TG * t_g, "tol": tol, "f_max": F_MAX, "f_min": F_MIN,
+                  "fail_decel": FAIL_DECEL,
                   "rest_tol": REST_TOL, "collapse_of_H": COLLAPSE,
                   "resolved_shepard": RESOLVED, "n_surface_row": int(np.sum(~inner))},
         trials=trials, wall_time_s=time.perf_counter() - t_start,
@@ -402,7 +446,7 @@ def slip_surface_plot(res, path, title=None):
     eps = np.minimum(res.eps_p_fail, 0.05)
     F = min(t["F"] for t in res.trials if t["verdict"] == "failed")
     return profile_plot(
-        path, title or f"{res.body}: SPH FoS {res.fos:.3f} (strength reduction, dx = "
+        path, title or f"{res.body}: SPH FoS {res.label} (strength reduction, dx = "
         f"{res.dx:g} m) vs Bishop {res.fos_bishop:.3f}",
         [(f"geostatic configuration coloured by accumulated plastic strain of the lowest "
           f"failed trial F = {F:.3f} (clipped at 0.05)", res.x_geo, eps, "eps_p"),
@@ -428,7 +472,8 @@ def curve_plot(res, path):
         pts = [(t["F"], t["u98_m"] / H) for t in tr if t["verdict"] == v]
         if pts:
             ax.semilogy(*zip(*pts, strict=True), mk, label=v)
-    ax.axvline(res.fos, color="g", ls="--", label=f"SPH FoS {res.fos:.3f}")
+    if res.fos is not None:
+        ax.axvline(res.fos, color="g", ls="--", label=f"SPH FoS {res.fos:.3f}")
     ax.axvline(res.fos_bishop, color="r", ls=":", label=f"Bishop {res.fos_bishop:.3f}")
     ax.set_xlabel("strength reduction factor F")
     ax.set_ylabel("u98 at the end of the trial / H")
@@ -452,11 +497,15 @@ def write_outputs(res, out_dir, stem="fos"):
 
 
 # ----------------------------------------------------------------------------- command
-def fos_command(case, body=None, out=None, overrides=(), method="sph"):
+def fos_command(case, body=None, out=None, overrides=(), method="sph", tol=TOL):
     """``fsi-sph fos``: the factor of safety of the case's soil slope by limit equilibrium
     (``bishop``) or strength reduction (``sph``); one line per trial on stdout; writes
     ``result.json`` (and the PNGs for ``sph``) into ``out`` (default
-    ``runs/<case name>_fos``). Bad input raises :class:`SlopeInputError`."""
+    ``runs/<case name>_fos``); ``tol``: the bracket's relative width. Bad input raises
+    :class:`SlopeInputError`."""
+    if not 0.0 < tol <= 0.5:
+        raise SlopeInputError(f"--tol {tol!r}: the bracket's relative width must be in "
+                              "(0, 0.5], e.g. 0.02 (the default) or 0.005")
     from fsi_sph.config import load_config
 
     cfg = load_config(case, list(overrides))
@@ -481,12 +530,19 @@ def fos_command(case, body=None, out=None, overrides=(), method="sph"):
     def line(r):
         print(f"  F = {r['F']:.4f}  u98 = {r['u98_m']:.4g} m ({100 * r['u98_m'] / H:.2f} % H), "
               f"last quarters {r['growth_q3_m']:+.3g} / {r['growth_q4_m']:+.3g} m  "
-              f"{r['verdict']:6s}  {r['elapsed_s']:.1f} s", flush=True)
+              f"{r['verdict']:6s}  {r['elapsed_s']:.1f} s, about "
+              f"{r['trials_left_estimate']} trial(s) left", flush=True)
 
-    res = strength_reduction(case, body, overrides, circle=circ, on_trial=line)
+    res = strength_reduction(case, body, overrides, tol=tol, circle=circ, on_trial=line)
     paths = write_outputs(res, out)
+    done = f"{len(res.trials)} trials in {time.perf_counter() - t0:.0f} s; " + ", ".join(
+        str(p) for p in paths)
+    if res.status != "bracketed":
+        print(f"factor of safety (SPH strength reduction) {res.label}: a bound, not a value; "
+              f"Bishop {circ.fos:.4f}; {done}")
+        return 0
     print(f"factor of safety (SPH strength reduction) {res.fos:.4f}, bracket "
-          f"[{res.bracket[0]:.4f}, {res.bracket[1]:.4f}]; Bishop {circ.fos:.4f} "
-          f"({100 * (res.fos - circ.fos) / circ.fos:+.1f} %); {len(res.trials)} trials in "
-          f"{time.perf_counter() - t0:.0f} s; {', '.join(str(p) for p in paths)}")
+          f"[{res.bracket[0]:.4f}, {res.bracket[1]:.4f}]"
+          f"{' (below 1: the slope fails as built)' if res.fos < 1.0 else ''}; Bishop "
+          f"{circ.fos:.4f} ({100 * (res.fos - circ.fos) / circ.fos:+.1f} %); {done}")
     return 0

@@ -12,6 +12,7 @@ from fsi_sph.config import load_config
 from fsi_sph.strength_reduction import (
     COLLAPSE,
     SlopeInputError,
+    search_bracket,
     slope_geometry,
     soil_body_name,
     verdict,
@@ -152,3 +153,46 @@ def test_coarse_unseen_c_phi_slope(tmp_path, capsys):
     r = json.loads((tmp_path / "result.json").read_text())
     assert r["n_particles"] < 400
     assert abs(r["fos"] - r["fos_bishop"]) < 0.05 * r["fos_bishop"]
+
+
+def _threshold(f_true):
+    """A slope that fails at every F >= f_true; the trials made and their estimates."""
+    made = []
+
+    def trial(F, left):
+        made.append((F, left))
+        return F >= f_true
+    return trial, made
+
+
+@pytest.mark.parametrize("f_true,f_start", [(1.234, 1.25), (0.3, 1.0), (2.9, 1.0),
+                                            (0.364, 0.369)])
+def test_bracket_search_brackets_the_answer(f_true, f_start):
+    """The bracket holds the answer within the tolerance, each F is tried once, and the
+    estimate of the trials left is exact once the bisection has begun (0 on the last)."""
+    trial, made = _threshold(f_true)
+    lo, hi, status = search_bracket(trial, f_start, 0.02)
+    assert status == "bracketed" and lo < f_true <= hi and hi - lo <= 0.02 * lo
+    assert len({F for F, _ in made}) == len(made)
+    assert made[-1][1] == 0
+    verdicts = [F >= f_true for F, _ in made]
+    k = next(i for i in range(len(made)) if len(set(verdicts[:i + 1])) == 2)  # bracketed
+    for i in range(k + 1, len(made)):  # the bisection
+        assert made[i][1] == len(made) - 1 - i
+
+
+def test_bracket_search_reports_bounds_not_numbers():
+    """A slope that stands at F_MAX, or fails at F_MIN, gives the bound and its status."""
+    from fsi_sph.strength_reduction import F_MAX, F_MIN
+
+    assert search_bracket(_threshold(50.0)[0], 8.0, 0.02) == (F_MAX, None, "stands_past")
+    assert search_bracket(_threshold(50.0)[0], 1.0, 0.02) == (F_MAX, None, "stands_past")
+    assert search_bracket(_threshold(0.01)[0], 0.017, 0.02) == (None, F_MIN, "fails_below")
+    assert search_bracket(_threshold(0.01)[0], 1.0, 0.02) == (None, F_MIN, "fails_below")
+
+
+def test_tol_out_of_range_is_a_usage_error(capsys):
+    """``--tol`` outside (0, 0.5]: exit 2 with what is allowed, before any work."""
+    assert main(["fos", str(CASES / "slope_1_granular.toml"), "--tol", "0"]) == 2
+    err = capsys.readouterr().err
+    assert "--tol" in err and "(0, 0.5]" in err and "Traceback" not in err
