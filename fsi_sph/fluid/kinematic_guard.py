@@ -80,6 +80,25 @@ class KinematicGuard:
                                  ps.wall_n[lo - nf:hi - nf], self.zero_b[lo - nf:hi - nf],
                                  gap, 1.0, self.scratch, dr, self.dv,
                                  self.row)
+        if ps.ns:  # structure rows last: the walls again on the rows it moved
+            self.scratch[:] = dr
+            self.walls_again(1.0, self.scratch, dr, at_rest=True)
+
+    def walls_again(self, dt, v_old, v, at_rest=False):
+        """The fixed walls' guard once more on the rows the structures' guard just changed
+        (``self.row >= 0``): a particle squeezed between a structure and a wall keeps out of
+        the wall (the structure's guard alone, applied last, pushed a particle trapped under
+        a landing block through the floor: measured, the zoo's sinking body). The walls are
+        fixed: what they take is not passed on."""
+        ps = self.ps
+        rows = np.flatnonzero(self.row >= 0)
+        (wlo, whi, wgap), _ = self.ranges()
+        if len(rows) == 0 or whi <= wlo:
+            return
+        v_b = self.zero_b if at_rest else ps.v_b
+        K.boundary_guard_rows(rows, ps.x_all, ps.ff_start, ps.ff_j, wlo, whi,
+                              ps.wall_n[:whi - ps.nf], v_b[:whi - ps.nf], wgap, dt, v_old, v,
+                              self.dv, self.row, False, 0.5 if at_rest else ps.w_new)
 
     def velocities(self, dt, v):
         """The kinematic guard (:func:`_kernels.boundary_guard`, :meth:`ranges`) at the
@@ -99,3 +118,4 @@ class KinematicGuard:
             if hit.any():
                 np.add.at(self.force, self.row[hit],
                           -(ps.body["m"][hit] / dt)[:, None] * self.dv[hit])
+                self.walls_again(dt, ps.v_old, v)

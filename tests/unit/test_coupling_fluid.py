@@ -2,6 +2,7 @@
 round-off with the real pressure field; structure pressures come from the same solve."""
 
 import numpy as np
+from numpy.testing import assert_allclose
 
 from fsi_sph.config import load_config
 from fsi_sph.simulation import Simulation
@@ -281,3 +282,36 @@ def test_automatic_and_fixed_subcycling_agree():
     assert subs[0] < 50 and subs[1] == 100
     assert tips[0] > 2e-3  # the gate has opened by a few millimetres
     assert abs(tips[0] - tips[1]) < 0.01 * tips[1]
+
+
+def test_a_particle_squeezed_by_a_structure_does_not_leave_through_the_wall(tmp_path):
+    """A fluid particle between the floor and a structure coming down on it (the zoo's sinking
+    block as it lands): the structure's guard makes it move with the structure, and the
+    walls' guard, applied again on the rows the structure moved, stops that step at the
+    walls' band (fsi_sph/fluid/kinematic_guard.py, ``walls_again``). Without it the step
+    ended 0.8 dx below the floor's surface, past its first wall row."""
+    p = tmp_path / "c.toml"
+    block = "origin = [0.1, 0.005], size = [0.1, 0.1]"
+    p.write_text(CASE.replace("origin = [0.1, 0.1], size = [0.1, 0.1] }]",
+                              block + " }]\nclamp = [{ " + block + " }]"))
+    sim = Simulation(load_config(p))
+    fluid = sim.fluid
+    x = fluid.body["x"]
+    # the floor row's particles left of the block moved under it (the lattice leaves no
+    # room there): 0.7 dx above the top wall row, 0.8 dx below the block's row
+    under = np.flatnonzero((x[:, 1] < 0.01) & (x[:, 0] > 0.02) & (x[:, 0] < 0.08))
+    assert len(under) >= 4
+    x[under] += [0.1, 0.002 - 0.005]
+    fluid.sync()
+    fluid.update_neighbors()
+    ps = fluid
+    nf, nwall = ps.nf, ps.nw - ps.ns
+    ps.v_b[nwall:] = [0.0, -1.0]  # the block comes down at 1 m/s
+    dt = 1e-2
+    v = np.zeros((nf, 2))
+    ps.v_old[:] = v
+    fluid.kinematic_guard.velocities(dt, v)
+    end = x[under, 1] + dt * (ps.w_new * v[under, 1] + (1.0 - ps.w_new) * ps.v_old[under, 1])
+    floor = -0.005  # the floor's top wall row, y = -dx/2
+    assert np.all(v[under, 1] < 0.0)  # pushed down by the block ...
+    assert_allclose(end, floor + 0.5 * 0.01, atol=1e-12)  # ... to the walls' band, no further

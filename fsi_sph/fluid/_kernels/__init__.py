@@ -34,6 +34,7 @@ from fsi_sph.fluid._kernels.gradients import (
 from fsi_sph.fluid._kernels.motion import (
     apply_shift,
     boundary_guard,
+    boundary_guard_rows,
     collision_dv,
     nearest_source,
     neighbour_bounds,
@@ -65,6 +66,7 @@ __all__ = [
     "SURFACE",
     "apply_shift",
     "boundary_guard",
+    "boundary_guard_rows",
     "collision_dv",
     "corrected_pair_gradient",
     "corrected_pressure_gradient",

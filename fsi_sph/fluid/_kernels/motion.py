@@ -183,6 +183,42 @@ def nearest_source(x, nbr_start, nbr_j, i, j_lo, j_hi, normals):
     return jb
 
 
+@njit(cache=True)
+def _guard_row(i, x, nbr_start, nbr_j, j_lo, j_hi, normals, v_b, gap, dt, v_old, v, out_dv,
+               out_row, stop, w_new):
+    """:func:`boundary_guard` on row ``i``."""
+    out_dv[i, 0] = 0.0
+    out_dv[i, 1] = 0.0
+    out_row[i] = -1
+    jb = nearest_source(x, nbr_start, nbr_j, i, j_lo, j_hi, normals)
+    if jb < 0:
+        return
+    b = jb - j_lo
+    n0 = normals[b, 0]
+    n1 = normals[b, 1]
+    dn = (x[i, 0] - x[jb, 0]) * n0 + (x[i, 1] - x[jb, 1]) * n1
+    un = (v[i, 0] - v_b[b, 0]) * n0 + (v[i, 1] - v_b[b, 1]) * n1
+    un_old = (v_old[i, 0] - v_b[b, 0]) * n0 + (v_old[i, 1] - v_b[b, 1]) * n1
+    if dn >= gap:
+        step = dt * (w_new * un + (1.0 - w_new) * un_old)
+        if dn + step >= gap:
+            return
+        cut = 1.0 if stop else 1.0 - (gap - dn) / step  # step < gap - dn <= 0
+        un *= cut
+        un_old *= cut
+    else:
+        un = min(un, 0.0)
+        un_old = min(un_old, 0.0)
+    if un != 0.0:
+        out_dv[i, 0] = -un * n0
+        out_dv[i, 1] = -un * n1
+        v[i, 0] -= un * n0
+        v[i, 1] -= un * n1
+        out_row[i] = b
+    v_old[i, 0] -= un_old * n0
+    v_old[i, 1] -= un_old * n1
+
+
 @njit(cache=True, parallel=True)
 def boundary_guard(x, nbr_start, nbr_j, nf, j_lo, j_hi, normals, v_b, gap, dt, v_old, v,
                    out_dv, out_row, stop=False, w_new=0.5):
@@ -205,33 +241,14 @@ def boundary_guard(x, nbr_start, nbr_j, nf, j_lo, j_hi, normals, v_b, gap, dt, v
     step would reach the band loses its whole velocity into the boundary (an inelastic
     contact within the step) instead of the share that takes it past the band's edge."""
     for i in prange(nf):
-        out_dv[i, 0] = 0.0
-        out_dv[i, 1] = 0.0
-        out_row[i] = -1
-        jb = nearest_source(x, nbr_start, nbr_j, i, j_lo, j_hi, normals)
-        if jb < 0:
-            continue
-        b = jb - j_lo
-        n0 = normals[b, 0]
-        n1 = normals[b, 1]
-        dn = (x[i, 0] - x[jb, 0]) * n0 + (x[i, 1] - x[jb, 1]) * n1
-        un = (v[i, 0] - v_b[b, 0]) * n0 + (v[i, 1] - v_b[b, 1]) * n1
-        un_old = (v_old[i, 0] - v_b[b, 0]) * n0 + (v_old[i, 1] - v_b[b, 1]) * n1
-        if dn >= gap:
-            step = dt * (w_new * un + (1.0 - w_new) * un_old)
-            if dn + step >= gap:
-                continue
-            cut = 1.0 if stop else 1.0 - (gap - dn) / step  # step < gap - dn <= 0
-            un *= cut
-            un_old *= cut
-        else:
-            un = min(un, 0.0)
-            un_old = min(un_old, 0.0)
-        if un != 0.0:
-            out_dv[i, 0] = -un * n0
-            out_dv[i, 1] = -un * n1
-            v[i, 0] -= un * n0
-            v[i, 1] -= un * n1
-            out_row[i] = b
-        v_old[i, 0] -= un_old * n0
-        v_old[i, 1] -= un_old * n1
+        _guard_row(i, x, nbr_start, nbr_j, j_lo, j_hi, normals, v_b, gap, dt, v_old, v, out_dv,
+                   out_row, stop, w_new)
+
+
+@njit(cache=True, parallel=True)
+def boundary_guard_rows(rows, x, nbr_start, nbr_j, j_lo, j_hi, normals, v_b, gap, dt, v_old, v,
+                        out_dv, out_row, stop=False, w_new=0.5):
+    """:func:`boundary_guard` on the fluid rows ``rows`` only (the others untouched)."""
+    for k in prange(len(rows)):
+        _guard_row(rows[k], x, nbr_start, nbr_j, j_lo, j_hi, normals, v_b, gap, dt, v_old, v,
+                   out_dv, out_row, stop, w_new)
