@@ -12,8 +12,9 @@ from pathlib import Path
 import numpy as np
 
 from fsi_sph.config import load_config
+from fsi_sph.fos_plots import profile_plot  # noqa: F401 (re-exported)
 from fsi_sph.simulation import Simulation
-from fsi_sph.strength_reduction import advance, profile_plot  # noqa: F401 (re-exported)
+from fsi_sph.strength_reduction import advance  # noqa: F401 (re-exported)
 
 log = logging.getLogger(__name__)
 

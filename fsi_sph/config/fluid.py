@@ -273,6 +273,13 @@ class FluidSection(StrictModel):
         "supported only by surface rows and by walls that extrapolate their pressure from it, "
         "it built up tens of kPa in a few steps at a granular front and was thrown "
         "(fsi_sph/fluid/free_surface.py); false = off")
+    surface_pocket_rows: Annotated[int, Field(ge=0, le=50)] = Field(
+        5, description="free-surface detection: the Poisson rows of a connected set of fewer "
+        "than this many Poisson rows beside surface rows are free-surface (p = 0) rows; such "
+        "a pocket inside a thin sheet built up 50 kPa in six steps in a dam break onto a "
+        "wedge and threw a particle out of the tank (fsi_sph/fluid/free_surface.py); 0 = off "
+        "(the mu(I) material's pick: under its incremental projection the rule traded one "
+        "thrown particle for another)")
     collision: CollisionSection | None = Field(
         None, description="absent: no particle collision model")
     wall_pressure: Literal["adami", "mirror"] = Field(

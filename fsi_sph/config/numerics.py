@@ -69,6 +69,7 @@ _GRANULAR_FLUID = {
     "position_update": "trapezoid",
     "wall_suction": False,
     "surface_scan": False,
+    "surface_pocket_rows": 0,
     "collision": {},
 }
 _GRANULAR_SHIFTING = {"model": "fickian_fixed", "taylor_energy_cap": False}

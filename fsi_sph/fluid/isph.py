@@ -240,7 +240,8 @@ class IncompressibleFluid(FluidParticles):
         free_surface.detect(
             self.x_all, self.vol_all, self.ff_start, self.ff_j, self.nf, self.h, self.kernel,
             b["divr"], b["grad_c"], b["sigma"], b["alpha"], b["class"], b["normal"],
-            scan=self.cfg.surface_scan, isolated=self.cfg.surface_isolated_rows)
+            scan=self.cfg.surface_scan, isolated=self.cfg.surface_isolated_rows,
+            pocket=self.cfg.surface_pocket_rows)
         self.rows.new_surface()  # waterline_rows: found anew for this alpha
 
     @property

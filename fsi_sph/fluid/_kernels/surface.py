@@ -3,6 +3,7 @@ particle classes, the isolated rows (gather-only; conventions in :mod:`fsi_sph.f
 
 import math
 
+import numpy as np
 from numba import njit, prange
 
 from fsi_sph.sph.kernels import kernel_dw, kernel_w, pair_offset
@@ -143,3 +144,50 @@ def isolated_rows(is_surface, nbr_start, nbr_j, nf, out):
                 alone = False
                 break
         out[i] = alone
+
+
+@njit(cache=True, parallel=True)
+def pocket_rows(is_surface, nbr_start, nbr_j, nf, nmin, out):
+    """``out[i]``: row ``i`` is a Poisson row (not a surface row, with neighbours) of a
+    connected set of Poisson rows (joined through fluid neighbours ``j < nf``) with fewer than
+    ``nmin`` rows and a surface row beside one of them: a pocket among surface rows
+    (:func:`free_surface.detect`). A breadth-first search from each Poisson row with a
+    surface neighbour, stopped at ``nmin`` rows; a pocket's rows are all marked (the same
+    value from every search that finds them)."""
+    for i in prange(nf):
+        out[i] = False
+    for i in prange(nf):
+        if is_surface[i] or nbr_start[i + 1] == nbr_start[i]:
+            continue
+        edge = False
+        for k in range(nbr_start[i], nbr_start[i + 1]):
+            j = nbr_j[k]
+            if j < nf and is_surface[j]:
+                edge = True
+                break
+        if not edge:
+            continue
+        found = np.empty(nmin, dtype=np.int64)
+        found[0] = i
+        n = 1
+        head = 0
+        while head < n and n < nmin:
+            a = found[head]
+            head += 1
+            for k in range(nbr_start[a], nbr_start[a + 1]):
+                j = nbr_j[k]
+                if j >= nf or is_surface[j] or nbr_start[j + 1] == nbr_start[j]:
+                    continue
+                seen = False
+                for q in range(n):
+                    if found[q] == j:
+                        seen = True
+                        break
+                if not seen:
+                    found[n] = j
+                    n += 1
+                    if n == nmin:
+                        break
+        if n < nmin:
+            for q in range(n):
+                out[found[q]] = True
