@@ -13,10 +13,9 @@ import logging
 import time
 
 from fsi_sph.config import load_config
+from fsi_sph.fos_plots import curve_plot, slip_surface_plot
 from fsi_sph.strength_reduction import (
-    curve_plot,
     limit_equilibrium,
-    slip_surface_plot,
     slope_geometry,
     soil_body_name,
     strength_reduction,
