@@ -6,6 +6,7 @@ support and drops towards 1 at a free surface.
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 from fsi_sph.fluid import _kernels as K
@@ -71,7 +72,8 @@ def detect(x, vol, nbr_start, nbr_j, nf, h, kind, out_divr, out_grad_c, out_sigm
         out_alpha[alone] = 0.0
     if pocket > 0:
         small = np.empty(nf, dtype=np.bool_)
-        K.pocket_rows(is_surface, nbr_start, nbr_j, nf, pocket, small)
+        found = np.empty((numba.config.NUMBA_NUM_THREADS, pocket), dtype=np.int64)
+        K.pocket_rows(is_surface, nbr_start, nbr_j, nf, found, small)
         is_surface |= small
         out_alpha[small] = 0.0
     K.surface_classes(x, is_surface, n_nbr, out_grad_c, nbr_start, nbr_j, nf, h, out_class,

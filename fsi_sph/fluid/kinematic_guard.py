@@ -40,15 +40,32 @@ class KinematicGuard:
         nf, nwall = ps.nf, ps.nw - ps.ns
         return ((nf, nf + nwall, 0.5 * ps.dx), (nf + nwall, nf + ps.nw, 2.0 * ps.h / 3.0))
 
-    def walls(self, dt, v_old, v, stop=False):
-        """The kinematic guard at the fixed walls (and their periodic images)."""
+    def walls(self, dt, v_old, v, stop=False, rows=None, displacement=False):
+        """The kinematic guard at the fixed walls (and their periodic images); on the fluid
+        rows ``rows`` only if given. ``displacement``: ``v`` is a displacement (the shift),
+        swept with the walls at rest and ``dt = 1``."""
         ps = self.ps
         nf = ps.nf
         (wlo, whi, wgap), _ = self.ranges()
-        if whi > wlo:
-            K.boundary_guard(ps.x_all, ps.ff_start, ps.ff_j, nf, wlo, whi,
-                             ps.wall_n[:whi - nf], ps.v_b[:whi - nf], wgap, dt, v_old, v,
-                             self.dv, self.row, stop, ps.w_new)
+        if whi <= wlo:
+            return
+        v_b = (self.zero_b if displacement else ps.v_b)[:whi - nf]
+        w_new = 0.5 if displacement else ps.w_new  # (v_old = v for a displacement)
+        if rows is None:
+            K.boundary_guard(ps.x_all, ps.ff_start, ps.ff_j, nf, wlo, whi, ps.wall_n[:whi - nf],
+                             v_b, wgap, dt, v_old, v, self.dv, self.row, stop, w_new)
+        elif len(rows):
+            K.boundary_guard_rows(rows, ps.x_all, ps.ff_start, ps.ff_j, wlo, whi,
+                                  ps.wall_n[:whi - nf], v_b, wgap, dt, v_old, v, self.dv,
+                                  self.row, stop, w_new)
+
+    def walls_again(self, dt, v_old, v, displacement=False):
+        """The fixed walls' guard once more on the rows the structures' guard just changed
+        (``self.row >= 0``): a particle squeezed between a structure and a wall keeps out of
+        the wall (the structure's guard alone, applied last, pushed a particle trapped under
+        a landing block through the floor: measured, the zoo's sinking body). The walls are
+        fixed: what they take is not passed on."""
+        self.walls(dt, v_old, v, rows=np.flatnonzero(self.row >= 0), displacement=displacement)
 
     def inelastic_contact(self, dt):
         """The kinematic guard (:func:`_kernels.boundary_guard` with ``stop``, swept over
@@ -82,23 +99,7 @@ class KinematicGuard:
                                  self.row)
         if ps.ns:  # structure rows last: the walls again on the rows it moved
             self.scratch[:] = dr
-            self.walls_again(1.0, self.scratch, dr, at_rest=True)
-
-    def walls_again(self, dt, v_old, v, at_rest=False):
-        """The fixed walls' guard once more on the rows the structures' guard just changed
-        (``self.row >= 0``): a particle squeezed between a structure and a wall keeps out of
-        the wall (the structure's guard alone, applied last, pushed a particle trapped under
-        a landing block through the floor: measured, the zoo's sinking body). The walls are
-        fixed: what they take is not passed on."""
-        ps = self.ps
-        rows = np.flatnonzero(self.row >= 0)
-        (wlo, whi, wgap), _ = self.ranges()
-        if len(rows) == 0 or whi <= wlo:
-            return
-        v_b = self.zero_b if at_rest else ps.v_b
-        K.boundary_guard_rows(rows, ps.x_all, ps.ff_start, ps.ff_j, wlo, whi,
-                              ps.wall_n[:whi - ps.nf], v_b[:whi - ps.nf], wgap, dt, v_old, v,
-                              self.dv, self.row, False, 0.5 if at_rest else ps.w_new)
+            self.walls_again(1.0, self.scratch, dr, displacement=True)
 
     def velocities(self, dt, v):
         """The kinematic guard (:func:`_kernels.boundary_guard`, :meth:`ranges`) at the

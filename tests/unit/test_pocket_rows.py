@@ -3,6 +3,7 @@ Poisson rows of a connected set of fewer than N Poisson rows with a surface row 
 become surface rows. The loop against a numpy oracle (connected components); a square block, a
 layer on a floor and a filled box without a surface row are unchanged."""
 
+import numba
 import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
@@ -24,7 +25,7 @@ def test_pocket_rows_match_oracle():
     for frac, nmin in ((0.7, 5), (0.8, 5), (0.75, 10)):
         is_surface = rng.random(nf) < frac
         out = np.empty(nf, dtype=np.bool_)
-        K.pocket_rows(is_surface, s, j, nf, nmin, out)
+        K.pocket_rows(is_surface, s, j, nf, np.empty((numba.config.NUMBA_NUM_THREADS, nmin), dtype=np.int64), out)
         # oracle: connected components of the Poisson rows over fluid pairs; every member
         # of the small ones that have a surface row beside one of their rows
         cnt = np.diff(s)

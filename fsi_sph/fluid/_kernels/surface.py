@@ -3,8 +3,7 @@ particle classes, the isolated rows (gather-only; conventions in :mod:`fsi_sph.f
 
 import math
 
-import numpy as np
-from numba import njit, prange
+from numba import get_thread_id, njit, prange
 
 from fsi_sph.sph.kernels import kernel_dw, kernel_w, pair_offset
 
@@ -147,13 +146,16 @@ def isolated_rows(is_surface, nbr_start, nbr_j, nf, out):
 
 
 @njit(cache=True, parallel=True)
-def pocket_rows(is_surface, nbr_start, nbr_j, nf, nmin, out):
+def pocket_rows(is_surface, nbr_start, nbr_j, nf, found, out):
     """``out[i]``: row ``i`` is a Poisson row (not a surface row, with neighbours) of a
     connected set of Poisson rows (joined through fluid neighbours ``j < nf``) with fewer than
     ``nmin`` rows and a surface row beside one of them: a pocket among surface rows
     (:func:`free_surface.detect`). A breadth-first search from each Poisson row with a
     surface neighbour, stopped at ``nmin`` rows; a pocket's rows are all marked (the same
-    value from every search that finds them)."""
+    value from every search that finds them). ``found``: the searches' scratch, one row of
+    ``nmin`` entries per numba thread (``numba.config.NUMBA_NUM_THREADS`` rows: no allocation
+    in the loop)."""
+    nmin = found.shape[1]
     for i in prange(nf):
         out[i] = False
     for i in prange(nf):
@@ -167,12 +169,12 @@ def pocket_rows(is_surface, nbr_start, nbr_j, nf, nmin, out):
                 break
         if not edge:
             continue
-        found = np.empty(nmin, dtype=np.int64)
-        found[0] = i
+        seen_rows = found[get_thread_id()]
+        seen_rows[0] = i
         n = 1
         head = 0
         while head < n and n < nmin:
-            a = found[head]
+            a = seen_rows[head]
             head += 1
             for k in range(nbr_start[a], nbr_start[a + 1]):
                 j = nbr_j[k]
@@ -180,14 +182,14 @@ def pocket_rows(is_surface, nbr_start, nbr_j, nf, nmin, out):
                     continue
                 seen = False
                 for q in range(n):
-                    if found[q] == j:
+                    if seen_rows[q] == j:
                         seen = True
                         break
                 if not seen:
-                    found[n] = j
+                    seen_rows[n] = j
                     n += 1
                     if n == nmin:
                         break
         if n < nmin:
             for q in range(n):
-                out[found[q]] = True
+                out[seen_rows[q]] = True
