@@ -50,8 +50,9 @@ def detect(x, vol, nbr_start, nbr_j, nf, h, kind, out_divr, out_grad_c, out_sigm
     beside it are surface rows too (:func:`_kernels.pocket_rows`): three or four Poisson
     rows inside a thin sheet drew 7 -> 53 kPa in six steps (hydrostatic there a few hundred
     Pa) and threw one of them out of a dam break onto a wedge at dx 6.7 mm
-    (docs/numerics/fluid.md, "Pockets of Poisson rows"). Returns the number of rows the scan
-    added.
+    (docs/numerics/fluid.md, "Pockets of Poisson rows"; a detection rule, not in PHYSICS.md,
+    tested against a connected-components oracle in tests/unit/test_pocket_rows.py). Returns
+    the number of rows the scan added.
     """
     K.position_divergence(x, vol, nbr_start, nbr_j, h, kind, out_divr, out_grad_c, out_sigma)
     out_alpha[:] = blend(out_divr)

@@ -64,7 +64,8 @@ class KinematicGuard:
         (``self.row >= 0``): a particle squeezed between a structure and a wall keeps out of
         the wall (the structure's guard alone, applied last, pushed a particle trapped under
         a landing block through the floor: measured, the zoo's sinking body). The walls are
-        fixed: what they take is not passed on."""
+        fixed: what they take is not passed on. A contact rule, not in PHYSICS.md
+        (tests/unit/test_coupling_fluid.py, the squeezed particle)."""
         self.walls(dt, v_old, v, rows=np.flatnonzero(self.row >= 0), displacement=displacement)
 
     def inelastic_contact(self, dt):
