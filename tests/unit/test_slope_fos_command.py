@@ -198,12 +198,6 @@ def test_tol_out_of_range_is_a_usage_error(capsys):
     assert "--tol" in err and "(0, 0.5]" in err and "Traceback" not in err
 
 
-@pytest.mark.xfail(strict=True, reason="known defect (2026-12-06): with c = 200 kPa every "
-                   "trial stays elastic (u98 0.13 mm = 0.01 % H at every F), yet the residual "
-                   "settling of the geostatic state decays by 0.701 per quarter, just above "
-                   "FAIL_DECEL = 0.7, so every trial is judged failed and the answer is "
-                   "'< 0.05' (fails_below); the failure test needs a floor for a slope at "
-                   "elastic rest")
 def test_a_slope_that_stands_past_the_largest_factor_gives_the_bound(tmp_path, capsys):
     """Slope 1 made strong (c = 200 kPa on a 1 m slope: Bishop far above 5) at dx = H/10
     through the whole command: two trials (F = 4 and 5) stand, the answer is the bound
