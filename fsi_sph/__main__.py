@@ -192,6 +192,12 @@ def _print_scene(cfg, est, sim):
         counts["walls"] = sim.fluid.walls.body.n
     print("particles: " + ", ".join(f"{k} {n}" for k, n in counts.items())
           + f" (total {sum(counts.values())})")
+    if sim.fluid is not None and sim.fluid.open is not None:
+        print("free surface: " + (
+            "none (confined: the fluid fills its channel at the start and an outflow holds "
+            "the pressure; every row a Poisson row, the density relaxation on every row "
+            "away from the walls)" if sim.fluid.confined else
+            "detected each step (the fluid has a free surface at the start, or no outflow)"))
     print(f"memory estimate: {size_text(est.memory)} (this machine: "
           f"{size_text(machine_memory())})")
     dt = sim.stable_dt()

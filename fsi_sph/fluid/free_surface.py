@@ -31,7 +31,7 @@ def blend(divr):
 
 
 def detect(x, vol, nbr_start, nbr_j, nf, h, kind, out_divr, out_grad_c, out_sigma, out_alpha,
-           out_class, out_normal, scan=False, isolated=False, pocket=0):
+           out_class, out_normal, scan=False, isolated=False, pocket=0, surface=True):
     """Fill the free-surface fields of the fluid rows (arrays of length ``nf``).
 
     ``x, vol`` are the stacked fluid+wall arrays and ``nbr_*`` the fluid rows' neighbour list.
@@ -53,8 +53,16 @@ def detect(x, vol, nbr_start, nbr_j, nf, h, kind, out_divr, out_grad_c, out_sigm
     (docs/numerics/fluid.md, "Pockets of Poisson rows"; a detection rule, not in PHYSICS.md,
     tested against a connected-components oracle in tests/unit/test_pocket_rows.py). Returns
     the number of rows the scan added.
+
+    ``surface=False`` (a confined flow, :attr:`FluidParticles.confined`): ``div r`` and the
+    kernel sum only; every row is an interior Poisson row (``alpha = 1``, no normal).
     """
     K.position_divergence(x, vol, nbr_start, nbr_j, h, kind, out_divr, out_grad_c, out_sigma)
+    if not surface:
+        out_alpha[:] = 1.0
+        out_class[:] = K.INTERIOR
+        out_normal[:] = 0.0
+        return 0
     out_alpha[:] = blend(out_divr)
     n_nbr = np.diff(nbr_start)
     is_surface = (out_divr < CHI) & (n_nbr > 0)

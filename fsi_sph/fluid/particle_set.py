@@ -82,6 +82,7 @@ class FluidParticles:
         for st in structures:  # and so are those on a site of, or inside, a coupled structure
             x = _carve(x, st, dx)
         self.open = None  # the open boundaries' buffers (open_boundary.py)
+        self.confined = False  # no free surface (IncompressibleFluid.fills_its_channel)
         if cfg.inflow or cfg.outflow:
             self.open = OpenBoundaries(cfg, dx, self.h)
             x = x[~self.open.inside(x)]

@@ -133,13 +133,14 @@ class RowRoles:
             K.fluid_neighbour_counts(ps.ff_start, ps.ff_j, self.fluid_of, self._n_fluid)
         return self._n_fluid
 
-    def beside_walls(self):
-        """The fluid rows that are neighbours of a fixed wall particle: the only rows whose
-        fluid-only gradient the walls' Shepard average reads
-        (:meth:`BoundaryRows.wall_body_force`)."""
+    def beside_walls(self, fixed_only=False):
+        """The fluid rows that are neighbours of a fixed wall particle (or of an open
+        boundary's buffer particle, unless ``fixed_only``): the only rows whose fluid-only
+        gradient the walls' Shepard average reads (:meth:`BoundaryRows.wall_body_force`)."""
         ps = self.ps
         near = np.zeros(ps.nf, dtype=bool)
-        src = self.fluid_of[ps.wf_j[:ps.wf_start[ps.n_walls]]]
+        last = ps.n_fixed if fixed_only else ps.n_walls
+        src = self.fluid_of[ps.wf_j[:ps.wf_start[last]]]
         near[src[src >= 0]] = True
         return near
 
@@ -157,4 +158,6 @@ class RowRoles:
         if ps.cfg.relaxation_gap_rows:
             gap = (b["divr"] >= DIVR_GAP) & (2 * self.fluid_neighbour_counts() >= ps.n_full)
             truncated &= ~gap
+        if ps.confined:  # no free surface: away from the walls a deficit is an expansion
+            truncated &= self.beside_walls(fixed_only=True)
         return truncated

@@ -202,3 +202,11 @@ def test_info_into_a_pipe_its_reader_closed_ends_quietly():
     err = proc.stderr.read().decode()
     assert proc.wait(timeout=120) == 141, err
     assert "Traceback" not in err and "BrokenPipe" not in err, err
+
+
+def test_info_says_a_full_channel_is_confined(capsys):
+    """A through-flow that fills its channel: `info` says it has no free surface and why."""
+    case = Path(__file__).resolve().parents[2] / "cases" / "channel_poiseuille.toml"
+    rc, lines = run_cli(capsys, ["info", str(case), "--set", "case.dx=0.01"])
+    assert rc == 0
+    assert any(line.startswith("free surface: none (confined") for line in lines)

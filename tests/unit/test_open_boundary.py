@@ -246,3 +246,46 @@ def test_open_boundaries_with_a_coupled_structure_restart_bit_identical(channel,
     np.testing.assert_array_equal(fl.x_all[fl.nf + fl.n_walls:], post)
     assert np.isfinite(full.probes[1].sample()).all()
     assert_restart_matches(case, over, 40, full, tmp_path)
+
+
+# ---------------------------------------------------------------- confined flows
+def test_a_channel_full_of_fluid_is_confined_and_has_no_surface_rows(channel):
+    """The channel fills the space between its walls and open lines: no free-surface row at
+    the start, so none later (every row a Poisson row, alpha 1), and the relaxation leaves no
+    row out as a truncated support, not even one beside a gap opened by hand."""
+    sim = Simulation(load_config(channel, COARSE))
+    f = sim.fluid
+    assert f.confined
+    for _ in range(3):
+        sim.step()
+    b = f.body
+    assert np.all(b["class"] == 0) and np.all(b["alpha"] == 1.0)
+    inner = (np.abs(b["x"][:, 1] - 0.05) < 0.011) & (np.abs(b["x"][:, 0] - 0.25) < 0.011)
+    b["x"][inner, 1] += 1.0  # a gap of nine particles mid-channel (moved far away)
+    f.update_neighbors()
+    f.detect_free_surface()
+    edge = (b["divr"] < 1.95) & (b["x"][:, 1] < 0.2)
+    assert edge.any() and np.all(b["class"] == 0)
+    assert not np.any(f.rows.truncated_for_relaxation()[edge])
+    f.confined = False  # the same rows in a free-surface fluid: left out as truncated
+    assert np.any(f.rows.truncated_for_relaxation()[edge])
+
+
+@pytest.mark.parametrize("edit", ["open_top", "no_outflow"])
+def test_a_free_surface_or_no_outflow_is_not_confined(channel, edit):
+    """With the ceiling lifted the top row is a free surface at the start; without an outflow
+    nothing holds the pressure: neither flow is confined, detection runs as in a tank."""
+    text = channel.read_text()
+    if edit == "open_top":
+        text = text.replace("{ origin = [-0.04, 0.1], size = [0.58, 0.03] }",
+                            "{ origin = [-0.04, 0.2], size = [0.58, 0.03] }")  # air above
+        text = text.replace("gravity = [0.0, 0.0]", "gravity = [0.0, -9.81]")
+    else:
+        i = text.index("[[fluid.outflow]]")
+        text = text[:i] + text[text.index("[walls]"):]
+    channel.write_text(text)
+    sim = Simulation(load_config(channel, COARSE))
+    assert not sim.fluid.confined
+    if edit == "open_top":
+        sim.fluid.detect_free_surface()
+        assert np.any(sim.fluid.body["class"] != 0)
