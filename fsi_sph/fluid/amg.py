@@ -332,6 +332,33 @@ class VCycle:
                           for lvl, a in enumerate(self.A[:-1])]
         self.applications = 0  # V-cycles applied so far (for the statistics)
 
+    @property
+    def n(self):
+        """Rows of the finest level (of ``P`` after a :meth:`remap`)."""
+        return self.P[0].shape[0] if self.P else self.A[0].shape[0]
+
+    def remap(self, old_of_new):
+        """The finest level's rows are renumbered (open boundaries: particles come and go
+        between steps): new row ``i`` is old row ``old_of_new[i]``, or a new particle
+        (``-1``). ``P`` keeps the rows of the particles that stay (a new particle's row is
+        zero: the smoother alone acts on it until the next rebuild) and ``R`` the same
+        columns; the coarse levels are kept. The finest matrix comes with the next
+        :meth:`refresh_finest`. Returns False for a one-level hierarchy (nothing to keep)."""
+        if len(self.A) == 1:
+            return False
+        old = np.asarray(old_of_new, dtype=np.int64)
+        kept = old >= 0
+        take = np.where(kept, old, 0)
+        scale = sp.diags(kept.astype(np.float64))
+        P = sp.csr_matrix((self.P[0].data, self.P[0].indices, self.P[0].indptr),
+                          shape=self.P[0].shape)
+        R = sp.csr_matrix((self.R[0].data, self.R[0].indices, self.R[0].indptr),
+                          shape=self.R[0].shape)
+        self.P[0] = _Csr(scale @ P[take])
+        self.R[0] = _Csr(R[:, take] @ scale)
+        self.work[0] = np.empty(len(old))
+        return True
+
     def refresh_finest(self, A, block0=None):
         """Smooth and compute residuals on the finest level with ``A`` (same size as the
         matrix the hierarchy was built on), keeping the coarse levels, ``P`` and ``R``.
@@ -340,8 +367,8 @@ class VCycle:
         break at 43k unknowns a hierarchy 11 steps old takes 13 V-cycles (FGMRES) with its
         own finest matrix, 5 with the current one, 6 with a fresh hierarchy. Costs one pass
         over ``A`` (the off-diagonal split of :class:`_Smoother`)."""
-        if A.shape != self.A[0].shape:
-            raise ValueError(f"refresh_finest: {A.shape} instead of {self.A[0].shape}")
+        if A.shape[0] != self.n:
+            raise ValueError(f"refresh_finest: {A.shape} instead of {self.n} rows")
         self.A[0] = A if isinstance(A, _Csr) else _Csr(A)
         if len(self.A) == 1:  # a one-level "hierarchy" is the LU solve of the matrix
             self.lu = spla.splu(sp.csc_matrix(sp.csr_matrix(

@@ -153,10 +153,25 @@ class IncompressibleFluid(FluidParticles):
         keep, new_x, new_v, new_p, p_buffer = op.exchange(
             self.body["x"], self.body["v"], p_buffer, self.rho * self.dx * self.dx)
         if len(new_x) or not keep.all() or len(p_buffer) != self.n_walls - self.n_fixed:
+            old_rows = self.rows_before_exchange(keep, len(new_x))
             self.relayout(keep, new_x, new_v, new_p, p_buffer)
             self.resized()
+            self.pressure.ppe.remap(old_rows)
         op.set_velocities(t, dt, self.body["x"], self.body["v"], self.kernel)
         self.buffer_rows()
+
+    def rows_before_exchange(self, keep, n_new):
+        """For each stacked row after the exchange (``[fluid | walls | inflow | outflow |
+        structures]``), its row before it, ``-1`` for a new fluid particle: the kept fluid
+        rows, the fixed walls and the inflow buffer in order, the outflow buffer's rows that
+        stay and then the fluid rows that joined it, the structures."""
+        op = self.open
+        nf, n_fixed, n_in = self.nf, self.n_fixed, op.n_in
+        return np.concatenate([
+            np.flatnonzero(keep), np.full(n_new, -1),
+            nf + np.arange(n_fixed + n_in),
+            nf + n_fixed + n_in + np.flatnonzero(op.stay), op.joined_rows,
+            nf + self.n_walls + np.arange(self.ns)])
 
     def buffer_rows(self):
         """The buffers' positions, velocities and body force in the stacked arrays."""

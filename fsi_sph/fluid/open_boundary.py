@@ -138,6 +138,7 @@ class OpenBoundaries:
         stay = ~gone
         joined = leaving >= 0
         self.keep = keep = ~(joined | back)
+        self.stay = stay
         self.joined_rows = np.flatnonzero(joined)
         self.x_out = np.vstack([self.x_out[stay], x_fluid[joined]])
         self.out_of = np.concatenate([self.out_of[stay], leaving[joined]])

@@ -13,7 +13,8 @@ iteration count stays within ``rebuild_growth`` times the count right after the 
 matrix (``refresh_finest``: smoothing and residual with the current matrix, one pass over it
 per step): with the old finest matrix the dam break's V-cycles grew by about one per step
 (6 -> 10 in 7 steps, then a rebuild); with the current one they stay at the fresh
-hierarchy's count.
+hierarchy's count. When the rows are renumbered (open boundaries: particles come and go),
+the hierarchy follows them (:meth:`PressureSolver.remap`) instead of being rebuilt.
 """
 
 from __future__ import annotations
@@ -110,7 +111,7 @@ class PressureSolver:
         self.last_iterations = 0
 
     def _needs_rebuild(self, n):
-        if self.vcycle is None or self.vcycle.A[0].shape[0] != n:
+        if self.vcycle is None or self.vcycle.n != n:
             return True
         if self.age >= self.cfg.rebuild_every:
             return True
@@ -142,6 +143,14 @@ class PressureSolver:
         self.vcycle = amg.VCycle(ml, amg.two_blocks(A, nf) if nf else None)
         self.age = 0
         self.base_iterations = None
+
+    def remap(self, old_of_new):
+        """The rows were renumbered (open boundaries): keep the hierarchy for the rows that
+        stay (:meth:`amg.VCycle.remap`) instead of building a new one at the next solve."""
+        if self.vcycle is None:
+            return
+        if not self.cfg.refresh_finest or not self.vcycle.remap(old_of_new):
+            self.vcycle = None  # (without the refresh the finest matrix would not fit)
 
     def reset(self):
         """Drop the hierarchy; the next solve builds a new one. Called at every snapshot, so
