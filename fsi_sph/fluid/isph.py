@@ -111,13 +111,13 @@ class IncompressibleFluid(FluidParticles):
         no free surface to find later: a gap that opens in it (behind a body, at low
         pressure) is a volume error, not a surface. So its rows are all Poisson rows
         (:func:`free_surface.detect` with ``surface=False``) and the density relaxation
-        pulls back an expansion on every row (:meth:`RowRoles.truncated_for_relaxation`).
-        Decided once, from the scene as built (the same on a restart). Measured on the
-        Turek-Hron channel (D/dx = 10, 3 s): as a free-surface fluid it opened voids
-        4-5 dx wide along the flag, never closed (the relaxation left their edge rows out
-        as truncated supports) and lost 2.5 % of its particles; confined, 0.6 %
-        (docs/validation/turek_hron_cfd2.md). A rule of this code, not in PHYSICS.md;
-        tests/unit/test_open_boundary.py."""
+        pulls back an expansion on every row away from the fixed walls
+        (:meth:`RowRoles.truncated_for_relaxation`). Decided once, from the scene as built
+        (the same on a restart). Measured on the Turek-Hron channel (D/dx = 10): as a
+        free-surface fluid it opened voids 4-5 dx wide along the flag that never closed (the
+        relaxation left their edge rows out as truncated supports) and lost 7 % of its
+        particles by 5 s; confined, 0.8 % (docs/validation/turek_hron_cfd2.md). A rule of
+        this code, not in PHYSICS.md; tests/unit/test_open_boundary.py."""
         if self.open is None or not len(self.open.out_line):
             return False
         self.detect_free_surface()
