@@ -259,14 +259,20 @@ def bisections(lo, hi, tol):
     return math.ceil(math.log2((hi - lo) / (tol * lo)))
 
 
+def _restore(sim, sb, saved, t_geo):
+    """Back to the stored geostatic state (the start of every trial)."""
+    for k, v in saved.items():
+        sb.body.arrays[k][...] = v
+    sb.body["eps_p"][:] = 0.0
+    sim.t = t_geo
+
+
 def _elastic_reference(sim, sb, saved, t_geo, t_g):
     """Positions at the trial's quarter marks of a trial held elastic (the geostatic
     stage continued): what every trial is measured against, so that the geostatic state's
     residual settling, which decays by about 0.7 per quarter whatever F, is not read as a
     slip (a slope at elastic rest departs from it by nothing)."""
-    for k, v in saved.items():
-        sb.body.arrays[k][...] = v
-    sim.t = t_geo
+    _restore(sim, sb, saved, t_geo)
     xs = []
     for q in QUARTERS:
         advance(sim, t_geo + q * TRIAL_TG * t_g)
@@ -372,10 +378,7 @@ def strength_reduction(case, body=None, overrides=(), tol=TOL, circle=None, on_t
 
     def trial(F, left):
         t0 = time.perf_counter()
-        for k, v in saved.items():
-            sb.body.arrays[k][...] = v
-        sb.body["eps_p"][:] = 0.0
-        sim.t = t_geo
+        _restore(sim, sb, saved, t_geo)
         phi_f = math.atan(math.tan(phi0) / F)
         sb.set_strength(c0 / F, phi_f, min(psi0, phi_f))
         us, ups = [], []
