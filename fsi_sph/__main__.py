@@ -126,19 +126,23 @@ def cmd_run(args):
         cfg = load_config_from_run(resume, args.overrides)
         label = f"{resume} (stored config)"
     check_scene(cfg, label, force=args.force)
+    comm = _ranks()
+    if comm.size > 1 and args.threads is None:  # one numba thread per rank by default
+        args.threads = 1
     _set_threads(args.threads)
     if resume is not None:
         out = Path(args.out) if args.out else None
     else:
         out = Path(args.out) if args.out else Path("runs") / cfg.case.name
     if out is not None and not args.overwrite:
-        refuse_overwrite(out / "run.h5")
+        _on_rank_zero(comm, refuse_overwrite, out / "run.h5")
     log.info("case %s: %s", case, ", ".join(cfg.modules()))
     for pick in cfg.numerics_picked():
         log.info("picked %s", pick)
-    sim = _build(cfg, case)
-    log.info("%d particles, set-up %.2f s (JIT compile included)", sim.n_particles,
-             sim.timings["setup"])
+    sim = _build(cfg, case, comm)
+    log.info("%d particles, set-up %.2f s (JIT compile included)%s", sim.n_particles,
+             sim.timings["setup"], f"; the fluid split over {comm.size} ranks ("
+             f"{sim.ranks.ppe_engine})" if comm.size > 1 else "")
     try:
         s = sim.run(out_dir=out, max_steps=args.max_steps, progress=not args.no_progress,
                     case_file=str(case), resume=resume)
@@ -155,14 +159,47 @@ def cmd_run(args):
     return 0
 
 
-def _build(cfg, case):
-    """The scene's :class:`Simulation`; an error found while building it names the file."""
+def _build(cfg, case, comm=None):
+    """The scene's :class:`Simulation` (split over the ranks of ``comm`` when there are
+    several); an error found while building it names the file."""
     from fsi_sph.simulation import Simulation
 
     try:
-        return Simulation(cfg)
+        if comm is None or comm.size == 1:
+            return Simulation(cfg)
+        from fsi_sph.parallel.ranks import RankSimulation
+
+        try:
+            return RankSimulation(cfg, comm)
+        except SimulationError as e:  # a scene that is not split yet
+            raise UsageError(f"{case}: {e}") from None
     except ConfigError as e:
         raise ConfigError(f"{case}: {e}") from None
+
+
+def _ranks():
+    """The MPI ranks this process runs with (:func:`fsi_sph.parallel.comm.world`: one
+    without an MPI launcher); on ranks other than 0 only warnings are logged."""
+    from fsi_sph.parallel.comm import world
+
+    comm = world()
+    if comm.rank != 0:
+        logging.getLogger().setLevel(logging.WARNING)
+    return comm
+
+
+def _on_rank_zero(comm, check, *args):
+    """``check(*args)`` on rank 0 only (a file check that rank 0's own output would
+    otherwise change); its UsageError is raised on every rank."""
+    failure = None
+    if comm.rank == 0:
+        try:
+            check(*args)
+        except UsageError as e:
+            failure = str(e)
+    failure = comm.bcast(failure, root=0)
+    if failure is not None:
+        raise UsageError(failure)
 
 
 def cmd_info(args):

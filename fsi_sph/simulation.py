@@ -72,10 +72,6 @@ class Simulation:
         self.timings: dict[str, float] = defaultdict(float)
         self.timings["setup"] = time.perf_counter() - t0
 
-    @classmethod
-    def from_config(cls, cfg: Config) -> Simulation:
-        return cls(cfg)
-
     def bodies(self) -> dict:
         """Every moving physics object, by name (each has ``.body``): the fluid and the
         structures. (Walls are fixed: they are in the snapshots, not here.)"""
@@ -96,7 +92,7 @@ class Simulation:
         return out
 
     # ------------------------------------------------------------------ the time step
-    def _limits(self):
+    def step_limits(self):
         """Every body's stability limit and the macro step's: the fluid's when there is a
         fluid (the structures are sub-cycled inside its step), else the stiffest body's."""
         limits = [b.stable_dt() for b in self.structures.values()]
@@ -107,7 +103,7 @@ class Simulation:
 
     def stable_dt(self) -> float:
         """The stable macro step in the current state."""
-        return self._limits()[1]
+        return self.step_limits()[1]
 
     def step(self, dt_max=math.inf, to_end=False):
         """Advance every body by one macro step; returns (dt, {body: n_sub}).
@@ -118,7 +114,7 @@ class Simulation:
         layer's final pressure field at 2.4 times the hydrostatic one)."""
         # 1. time step: the fluid's when there is a fluid; else the stiffest structure's
         fluid = self.fluid
-        limits, dt = self._limits()
+        limits, dt = self.step_limits()
         dt = min(dt_max, dt)
         if to_end and dt < dt_max < 2.0 * dt:
             dt = 0.5 * dt_max
@@ -152,32 +148,23 @@ class Simulation:
             self.timings["ppe_solve"] += stats.solve_time
             self.particle_steps += fluid.n
         # 3. structures, each sub-cycled to its own stability limit
-        #    (TLSPH solids and Drucker-Prager soils alike; timed per body kind)
-        n_sub = {}
-        if coupling is not None:  # [F 48]: sub-cycled, force held, averaged velocity back
-            t0 = time.perf_counter()
-            n_sub.update(coupling.advance(dt))
-            self.particle_steps += sum(n * self.structures[k].body.n for k, n in n_sub.items())
-            self.timings["solid"] += time.perf_counter() - t0
-        for name, body in self.structures.items():
-            if name in n_sub:
-                continue
-            t0 = time.perf_counter()
-            n = max(1, math.ceil(dt / body.stable_dt() - 1e-12))
-            for _ in range(n):
-                body.substep(dt / n)
-            n_sub[name] = n
-            self.particle_steps += n * body.body.n
-            self.timings[body.body.kind] += time.perf_counter() - t0
+        n_sub = _advance_structures(self, dt)
         self.t += dt
         self.n_steps += 1
         return dt, n_sub
 
     # ------------------------------------------------------------------ guard, state
+    writes_output = True  # this process writes the run file (fsi_sph/parallel/ranks.py)
+
+    def gather_view(self):
+        """Every body's whole state in this process's bodies, for the guard, the probes and
+        the output (a run split over ranks gathers it here: fsi_sph/parallel/ranks.py)."""
+
     def check(self):
         """Run the blow-up guard (:mod:`fsi_sph.guard`); on success remember this state as
         the last good one. Raises :class:`SimulationError` naming time, step, body, particle
         and quantity."""
+        self.gather_view()
         self.guard.check(self.t, self.n_steps, self.bodies())
         self.last_good = (self.clock(), self.state())
 
@@ -234,6 +221,7 @@ class Simulation:
         last_snapshot = [-1.0 if resume is None else self.t]
 
         def sample():
+            self.gather_view()
             for p in self.probes:
                 rows[p.name][1].append([self.t, *p.sample()])
 
@@ -243,6 +231,7 @@ class Simulation:
             nonlocal step_rows
             restart_point = snapshot if restart_point is None else restart_point
             t0 = time.perf_counter()
+            self.gather_view()
             if snapshot:  # output or not, so that the physics never depends on the output
                 for o in self.bodies().values():
                     if hasattr(o, "at_snapshot"):
@@ -260,7 +249,7 @@ class Simulation:
             step_rows = []
             self.timings["output"] += time.perf_counter() - t0
 
-        bar = Progress(c.t_end, self.t) if progress else None
+        bar = Progress(c.t_end, self.t) if progress and self.writes_output else None
         loop_t0 = time.perf_counter()
         status = "completed"
         try:
@@ -304,6 +293,7 @@ class Simulation:
             self.timings["loop"] = time.perf_counter() - loop_t0 - self.timings["output"]
             if bar is not None:
                 bar.close()
+            self.gather_view()
             if writer is not None:
                 if status.startswith("failed"):
                     flush(False, status)
@@ -325,6 +315,30 @@ class Simulation:
         if self.fluid is not None and self.fluid.walls is not None:
             snap["walls"] = self.fluid.wall_snapshot()
         return snap
+
+
+def _advance_structures(sim, dt):
+    """The structures' part of :meth:`Simulation.step`: each sub-cycled to its own
+    stability limit (TLSPH solids and Drucker-Prager soils alike; timed per body kind), the
+    coupled ones by the coupling [F 48] (sub-cycled, force held, averaged velocity back).
+    Returns ``{name: sub-steps}``."""
+    n_sub = {}
+    if sim.coupling is not None:
+        t0 = time.perf_counter()
+        n_sub.update(sim.coupling.advance(dt))
+        sim.particle_steps += sum(n * sim.structures[k].body.n for k, n in n_sub.items())
+        sim.timings["solid"] += time.perf_counter() - t0
+    for name, body in sim.structures.items():
+        if name in n_sub:
+            continue
+        t0 = time.perf_counter()
+        n = max(1, math.ceil(dt / body.stable_dt() - 1e-12))
+        for _ in range(n):
+            body.substep(dt / n)
+        n_sub[name] = n
+        sim.particle_steps += n * body.body.n
+        sim.timings[body.body.kind] += time.perf_counter() - t0
+    return n_sub
 
 
 def _write_last_good(sim, writer, status):
@@ -349,6 +363,9 @@ def _open_writer(sim, out_dir, case_file, resume):
     writer = None
     if resume is not None:
         sim.load_state(*read_restart(resume))
+    if not sim.writes_output:
+        return None
+    if resume is not None:
         if out_dir is None:
             writer = RunWriter.reopen(resume, sim.t)
     if out_dir is not None:

@@ -166,15 +166,20 @@ class FluidParticles:
         self.restack(p_buffer)
 
     def restack(self, p_buffer):
-        """The stacked arrays for the current fluid body and buffers (:meth:`relayout`)."""
+        """The stacked arrays for the current fluid body and buffers (:meth:`relayout`);
+        without open boundaries ``p_buffer`` is empty."""
         nf_old = self.nf
         tail = self.n_walls + self.ns  # (old) end of the structure rows
-        n_open = self.open.n
+        n_open = self.open.n if self.open is not None else 0
         fixed = slice(nf_old, nf_old + self.n_fixed)
         structures = slice(nf_old + self.n_walls, nf_old + tail)
         b = self.body
         self.nf = nf = b.n
-        gb = self.open.body_force(self.gravity)
+        if self.open is None:
+            gb = opos = ovel = np.zeros((0, 2))
+        else:
+            gb = self.open.body_force(self.gravity)
+            opos, ovel = self.open.positions(), self.open.velocities()
 
         def stack(a, fluid_rows, open_rows, offset):
             head = a[fixed.start - offset:fixed.stop - offset]
@@ -182,12 +187,12 @@ class FluidParticles:
             return np.ascontiguousarray(np.concatenate([fluid_rows, head, open_rows, end]))
 
         empty = np.zeros((0, 2))
-        self.x_all = stack(self.x_all, b["x"], self.open.positions(), 0)
-        self.v_all = stack(self.v_all, b["v"], self.open.velocities(), 0)
+        self.x_all = stack(self.x_all, b["x"], opos, 0)
+        self.v_all = stack(self.v_all, b["v"], ovel, 0)
         self.p_all = stack(self.p_all, b["p"], p_buffer, 0)
         self.vol_all = stack(self.vol_all, b["vol"], np.full(n_open, self.dx * self.dx), 0)
         self.nu_all = stack(self.nu_all, b["nu"], np.full(n_open, self.nu0), 0)
-        self.v_b = stack(self.v_b, empty, self.open.velocities(), nf_old)
+        self.v_b = stack(self.v_b, empty, ovel, nf_old)
         self.g_b = stack(self.g_b, empty, gb, nf_old)
         self.implicit = stack(self.implicit, np.zeros(0), np.zeros(n_open), nf_old)
         self.wall_n = stack(self.wall_n, empty, np.zeros((n_open, 2)), nf_old)

@@ -1,0 +1,111 @@
+"""The pressure Poisson equation of a fluid split over ranks, solved on rank 0.
+
+Each rank assembles the PPE of its own particles and ghosts (the serial assembly,
+:func:`fsi_sph.fluid.ppe.assemble`, unchanged) and keeps the rows it owns; their columns are
+renumbered to the global rows (:class:`RowNumbering`). Rank 0 gathers the rows, puts them in
+the global order and solves with the serial solver (:class:`~fsi_sph.fluid.ppe.PressureSolver`,
+its AMG hierarchy kept across steps as in a serial run); every rank gets the pressure of all
+its rows back. The global row order is the serial run's own (fluid particles by global id,
+then the walls), so rank 0 solves the very matrix of the serial run: a run on P ranks is the
+serial run bit for bit (tests/parallel/test_fluid_ranks.py). This is the route without
+PETSc; it costs a gather and a broadcast of the matrix's size per step and does not scale
+past a few ranks (docs/parallel.md).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from fsi_sph.fluid.ppe import PressureSolver
+
+
+@dataclass
+class RowNumbering:
+    """Where this rank's stacked rows sit in the global PPE: ``global_row`` (one per stacked
+    row, own or ghost), ``owned`` (the stacked rows this rank contributes), ``n_global``
+    and ``nf_global`` (the global count of rows and of fluid rows)."""
+
+    global_row: np.ndarray
+    owned: np.ndarray
+    n_global: int
+    nf_global: int
+
+
+class GatheredPressureSolver:
+    """Stands in for the fluid's :class:`PressureSolver` (same ``solve``, ``remap``,
+    ``reset``) on several ranks; ``comm`` an mpi4py communicator, ``cfg`` a PPESection."""
+
+    def __init__(self, cfg, comm):
+        self.cfg = cfg
+        self.comm = comm
+        self.serial = PressureSolver(cfg) if comm.rank == 0 else None
+        self.rows = None  # RowNumbering, set by the driver after each redistribution
+
+    def remap(self, old_of_new):
+        """Rows renumbered: the hierarchy on rank 0 is kept for the global rows."""
+
+    def reset(self):
+        """At a snapshot (bit-identical restart): rank 0 drops its hierarchy."""
+        if self.serial is not None:
+            self.serial.reset()
+
+    def solve(self, A, b, x0, nf=None, low_rank=None):
+        """Solve the global PPE of which ``A, b`` (this rank's stacked rows) hold this
+        rank's part; returns ``(p, PPEStats)`` with ``p`` for every stacked row."""
+        if low_rank is not None:
+            raise NotImplementedError("rigid bodies' low-rank terms on several ranks")
+        rows = self.rows
+        t0 = time.perf_counter()
+        part = owned_rows(A, b, x0, rows)
+        parts = self.comm.gather(part, root=0)
+        p = stats = failure = None
+        if self.comm.rank == 0:
+            try:
+                Ag, bg, xg = global_system(parts, rows.n_global)
+                p, stats = self.serial.solve(Ag, bg, xg, rows.nf_global)
+            except RuntimeError as e:  # every rank fails with it, none waits
+                failure = str(e)
+        p, stats, failure = self.comm.bcast((p, stats, failure), root=0)
+        if failure is not None:
+            raise RuntimeError(failure)
+        stats.assemble_time = 0.0
+        stats.solve_time = time.perf_counter() - t0 - stats.setup_time
+        return p[rows.global_row], stats
+
+
+def owned_rows(A, b, x0, rows: RowNumbering):
+    """This rank's rows of the system in global numbering: ``(global rows, indptr,
+    global columns, data, b, x0)``. The map from stacked to global rows is increasing over
+    the stacked rows (the driver orders them so), so each row's columns stay sorted."""
+    A = sp.csr_array(A)
+    sub = A[rows.owned]
+    cols = rows.global_row[sub.indices]
+    return (rows.global_row[rows.owned], sub.indptr.astype(np.int64), cols, sub.data,
+            b[rows.owned], x0[rows.owned])
+
+
+def global_system(parts, n_global):
+    """The global matrix, right-hand side and initial guess from every rank's
+    :func:`owned_rows`, rows in global order; each global row must come exactly once."""
+    g_rows = np.concatenate([p[0] for p in parts])
+    if len(g_rows) != n_global or not np.array_equal(np.sort(g_rows), np.arange(n_global)):
+        raise RuntimeError(f"PPE on ranks: {len(g_rows)} rows gathered for {n_global} "
+                           "(a row missing or owned twice)")
+    indptr = np.zeros(n_global + 1, dtype=np.int64)
+    np.cumsum(np.concatenate([np.diff(p[1]) for p in parts]), out=indptr[1:])
+    stacked = sp.csr_array((np.concatenate([p[3] for p in parts]),
+                            np.concatenate([p[2] for p in parts]), indptr),
+                           shape=(n_global, n_global))
+    A = stacked[np.argsort(g_rows, kind="stable")]  # (each row's entries keep their order)
+    A = sp.csr_array((A.data, A.indices.astype(np.int32), A.indptr.astype(np.int32)),
+                     shape=(n_global, n_global))
+    A.has_sorted_indices = True
+    b = np.empty(n_global)
+    x0 = np.empty(n_global)
+    b[g_rows] = np.concatenate([p[4] for p in parts])
+    x0[g_rows] = np.concatenate([p[5] for p in parts])
+    return A, b, x0
