@@ -178,3 +178,30 @@ def byte_spec(buf, byte_counts):
     raw = buf.reshape(-1).view(np.uint8)
     displs = np.concatenate([[0], np.cumsum(byte_counts)[:-1]]).astype(np.int64)
     return [raw, (byte_counts.astype(np.int64), displs), MPI.BYTE]
+
+
+#: seconds between two tests of a pending request in :func:`wait_quietly`
+POLL_S = 1e-4
+
+
+def wait_quietly(request):
+    """Wait for an MPI request by testing it every ``POLL_S`` seconds instead of in MPI's
+    busy loop, so that the waiting rank leaves its core to the one at work (the PPE
+    gathered to rank 0: :mod:`fsi_sph.parallel.ppe_gather`)."""
+    import time
+
+    while not request.Test():
+        time.sleep(POLL_S)
+
+
+def ranks_on_this_node(comm):
+    """How many ranks of ``comm`` share this node (1 for a serial communicator)."""
+    if comm.size == 1:
+        return 1
+    from mpi4py import MPI
+
+    node = comm.Split_type(MPI.COMM_TYPE_SHARED)
+    try:
+        return node.size
+    finally:
+        node.Free()

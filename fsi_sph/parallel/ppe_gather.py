@@ -17,10 +17,12 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 import scipy.sparse as sp
 
 from fsi_sph.fluid.ppe import PressureSolver
+from fsi_sph.parallel.comm import ranks_on_this_node, wait_quietly
 
 
 @dataclass
@@ -44,6 +46,8 @@ class GatheredPressureSolver:
         self.comm = comm
         self.serial = PressureSolver(cfg) if comm.rank == 0 else None
         self.rows = None  # RowNumbering, set by the driver after each redistribution
+        self.sent_bytes = 0  # bytes of matrix rows this rank sent to rank 0
+        self.node_ranks = ranks_on_this_node(comm)
 
     def remap(self, old_of_new):
         """Rows renumbered: the hierarchy on rank 0 is kept for the global rows."""
@@ -61,20 +65,33 @@ class GatheredPressureSolver:
         rows = self.rows
         t0 = time.perf_counter()
         part = owned_rows(A, b, x0, rows)
+        self.sent_bytes += sum(a.nbytes for a in part)
         parts = self.comm.gather(part, root=0)
-        p = stats = failure = None
+        p = np.empty(rows.n_global)
+        stats = failure = None
         if self.comm.rank == 0:
             try:
-                Ag, bg, xg = global_system(parts, rows.n_global)
-                p, stats = self.serial.solve(Ag, bg, xg, rows.nf_global)
+                p[:], stats = self.solve_here(*global_system(parts, rows.n_global),
+                                              rows.nf_global)
             except RuntimeError as e:  # every rank fails with it, none waits
                 failure = str(e)
-        p, stats, failure = self.comm.bcast((p, stats, failure), root=0)
+        wait_quietly(self.comm.Ibcast(p, root=0))
+        stats, failure = self.comm.bcast((stats, failure), root=0)
         if failure is not None:
             raise RuntimeError(failure)
         stats.assemble_time = 0.0
         stats.solve_time = time.perf_counter() - t0 - stats.setup_time
         return p[rows.global_row], stats
+
+    def solve_here(self, A, b, x0, nf):
+        """The serial solve on rank 0 with the numba threads of every rank of this node
+        (they wait for the result without spinning: :func:`wait_quietly`)."""
+        threads = numba.get_num_threads()
+        numba.set_num_threads(min(numba.config.NUMBA_NUM_THREADS, threads * self.node_ranks))
+        try:
+            return self.serial.solve(A, b, x0, nf)
+        finally:
+            numba.set_num_threads(threads)
 
 
 def owned_rows(A, b, x0, rows: RowNumbering):

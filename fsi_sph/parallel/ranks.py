@@ -26,6 +26,7 @@ boundaries, periodic images and moving frames are not split yet (:func:`check_sc
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 
@@ -99,6 +100,7 @@ class FluidOnRanks:
         self.halo = None
         self.rebalanced = 0  # times the strips were cut anew
         self.x_start = None  # the rows' positions at the start of the last step
+        self.traffic = [0, 0]  # bytes and messages this rank sent in the ghost exchanges
 
     def distribute(self):
         """Owned particles to their strips, ghosts copied anew, the fluid's rows laid out
@@ -109,7 +111,11 @@ class FluidOnRanks:
             self.rebalanced += 1
         own = migrate(comm, self.strips, self.own)
         self.halo = Halo.build(comm, self.strips, own["x"], self.width)
-        ghost = {k: self.halo.exchange(a) for k, a in own.items()}
+        ghost = {}
+        for k, a in own.items():
+            ghost[k] = self.halo.exchange(a)
+            self.traffic[0] += self.halo.bytes_last
+            self.traffic[1] += self.halo.messages_last
         gid = np.concatenate([own["gid"], ghost["gid"]])
         order = np.argsort(gid, kind="stable")
         self.is_own = order < len(own["gid"])
@@ -199,7 +205,9 @@ class RankSimulation(Simulation):
         """One step of every rank's particles (:meth:`Simulation.step` on the rank's own
         particles and ghosts); the particle-steps counted are the owned ones over all
         ranks."""
+        t0 = time.perf_counter()
         self.ranks.distribute()
+        self.timings["exchange"] += time.perf_counter() - t0
         self.viewed = None
         counted = self.particle_steps
         out = super().step(dt_max, to_end)
