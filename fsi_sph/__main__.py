@@ -214,7 +214,9 @@ def cmd_info(args):
     print("numerics picked from the declared physics" + (":" if picks else ": none"))
     for pick in picks:
         print(f"  {pick}")
-    _print_scene(cfg, est, _build(cfg, args.case))
+    sim = _build(cfg, args.case)
+    _print_scene(cfg, est, sim)
+    print("several MPI ranks: " + _ranks_text(sim))
     print("resolved config:")
     print(json.dumps(cfg.model_dump(mode="json"), indent=2))
     return 0
@@ -245,6 +247,18 @@ def _print_scene(cfg, est, sim):
     dt_flow, why = _flow_step(sim, dt)
     print(f"steps to t_end = {cfg.case.t_end:g} s: about {math.ceil(cfg.case.t_end / dt_flow)} "
           f"({why})")
+
+
+def _ranks_text(sim):
+    """What `mpiexec -n P fsi-sph run` does with this scene (fsi_sph/parallel/ranks.py)."""
+    from fsi_sph.parallel.ranks import HALO_SUPPORTS, PPE_ENGINE, check_scene
+
+    try:
+        check_scene(sim)
+    except SimulationError as e:
+        return str(e)
+    return (f"the fluid split into strips, a halo of {HALO_SUPPORTS} kernel supports, "
+            f"{PPE_ENGINE}")
 
 
 def _flow_step(sim, dt):

@@ -22,7 +22,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from fsi_sph.fluid.ppe import PressureSolver
-from fsi_sph.parallel.comm import ranks_on_this_node, wait_quietly
+from fsi_sph.parallel.comm import exchange_arrays, ranks_on_this_node, wait_quietly
 
 
 @dataclass
@@ -66,7 +66,7 @@ class GatheredPressureSolver:
         t0 = time.perf_counter()
         part = owned_rows(A, b, x0, rows)
         self.sent_bytes += sum(a.nbytes for a in part)
-        parts = self.comm.gather(part, root=0)
+        parts = list(zip(*[to_root(self.comm, a) for a in part], strict=True))
         p = np.empty(rows.n_global)
         stats = failure = None
         if self.comm.rank == 0:
@@ -94,35 +94,71 @@ class GatheredPressureSolver:
             numba.set_num_threads(threads)
 
 
+def to_root(comm, a):
+    """``a`` from every rank to rank 0 (one :func:`exchange_arrays`: the other ranks
+    receive nothing); on rank 0 the list of the ranks' arrays."""
+    return exchange_arrays(comm, [a if r == 0 else a[:0] for r in range(comm.size)])
+
+
 def owned_rows(A, b, x0, rows: RowNumbering):
-    """This rank's rows of the system in global numbering: ``(global rows, indptr,
+    """This rank's rows of the system in global numbering: ``(global rows, row lengths,
     global columns, data, b, x0)``. The map from stacked to global rows is increasing over
     the stacked rows (the driver orders them so), so each row's columns stay sorted."""
     A = sp.csr_array(A)
-    sub = A[rows.owned]
-    cols = rows.global_row[sub.indices]
-    return (rows.global_row[rows.owned], sub.indptr.astype(np.int64), cols, sub.data,
-            b[rows.owned], x0[rows.owned])
+    index = np.int32 if rows.n_global < 2**31 else np.int64
+    g = rows.global_row.astype(index)
+    lengths = (A.indptr[rows.owned + 1] - A.indptr[rows.owned]).astype(np.int64)
+    starts = np.zeros(len(lengths) + 1, dtype=np.int64)
+    np.cumsum(lengths, out=starts[1:])
+    cols = np.empty(starts[-1], dtype=index)
+    data = np.empty(starts[-1])
+    _take_rows(A.indptr, A.indices, A.data, rows.owned, g, starts, cols, data)
+    return g[rows.owned], lengths, cols, data, b[rows.owned], x0[rows.owned]
 
 
 def global_system(parts, n_global):
     """The global matrix, right-hand side and initial guess from every rank's
     :func:`owned_rows`, rows in global order; each global row must come exactly once."""
-    g_rows = np.concatenate([p[0] for p in parts])
-    if len(g_rows) != n_global or not np.array_equal(np.sort(g_rows), np.arange(n_global)):
+    g_rows = np.concatenate([p[0] for p in parts]).astype(np.int64)
+    lengths = np.concatenate([p[1] for p in parts])
+    seen = np.bincount(g_rows, minlength=n_global) if len(g_rows) else np.zeros(n_global)
+    if len(g_rows) != n_global or len(seen) != n_global or np.any(seen != 1):
         raise RuntimeError(f"PPE on ranks: {len(g_rows)} rows gathered for {n_global} "
                            "(a row missing or owned twice)")
+    src = np.zeros(len(lengths) + 1, dtype=np.int64)
+    np.cumsum(lengths, out=src[1:])
     indptr = np.zeros(n_global + 1, dtype=np.int64)
-    np.cumsum(np.concatenate([np.diff(p[1]) for p in parts]), out=indptr[1:])
-    stacked = sp.csr_array((np.concatenate([p[3] for p in parts]),
-                            np.concatenate([p[2] for p in parts]), indptr),
-                           shape=(n_global, n_global))
-    A = stacked[np.argsort(g_rows, kind="stable")]  # (each row's entries keep their order)
-    A = sp.csr_array((A.data, A.indices.astype(np.int32), A.indptr.astype(np.int32)),
-                     shape=(n_global, n_global))
+    np.cumsum(np.bincount(g_rows, weights=lengths, minlength=n_global).astype(np.int64),
+              out=indptr[1:])
+    indices = np.empty(indptr[-1], dtype=np.int32)
+    data = np.empty(indptr[-1])
+    _place_rows(np.concatenate([p[2] for p in parts]), np.concatenate([p[3] for p in parts]),
+                src, g_rows, indptr, indices, data)
+    A = sp.csr_array((data, indices, indptr.astype(np.int32)), shape=(n_global, n_global))
     A.has_sorted_indices = True
     b = np.empty(n_global)
     x0 = np.empty(n_global)
     b[g_rows] = np.concatenate([p[4] for p in parts])
     x0[g_rows] = np.concatenate([p[5] for p in parts])
     return A, b, x0
+
+
+@numba.njit(cache=True, parallel=True)
+def _take_rows(indptr, indices, data, rows, global_row, starts, out_cols, out_data):
+    """Rows ``rows`` of a CSR matrix, columns renumbered by ``global_row``, packed at
+    ``starts``."""
+    for k in numba.prange(len(rows)):
+        a = indptr[rows[k]]
+        for m in range(starts[k + 1] - starts[k]):
+            out_cols[starts[k] + m] = global_row[indices[a + m]]
+            out_data[starts[k] + m] = data[a + m]
+
+
+@numba.njit(cache=True, parallel=True)
+def _place_rows(cols, vals, src, g_rows, indptr, out_indices, out_data):
+    """Packed rows (``src`` their starts) copied to their global rows ``g_rows``."""
+    for k in numba.prange(len(g_rows)):
+        a, at = src[k], indptr[g_rows[k]]
+        for m in range(src[k + 1] - a):
+            out_indices[at + m] = cols[a + m]
+            out_data[at + m] = vals[a + m]

@@ -40,6 +40,8 @@ from fsi_sph.sph.kernels import SUPPORT
 #: halo depth in kernel supports (docs/parallel.md: the smallest depth at which the dam
 #: break on 2 ranks repeats the serial run bit for bit, plus a margin)
 HALO_SUPPORTS = 4
+#: how the PPE of a split fluid is solved (ppe_gather.py)
+PPE_ENGINE = "the PPE gathered to rank 0 and solved there by pyamg"
 #: the strips are cut anew when the busiest rank has this much more than the mean (issue 32)
 REBALANCE = 0.10
 
@@ -93,7 +95,7 @@ class FluidOnRanks:
         self.strips = Strips.balanced(comm, x if comm.rank == 0 else x[:0])
         self.own_from_body()
         self.ppe = GatheredPressureSolver(fl.cfg.ppe, comm)
-        self.ppe_engine = "PPE gathered to rank 0, pyamg"
+        self.ppe_engine = PPE_ENGINE
         fl.pressure.ppe = self.ppe
         fl.pressure.increments.ppe = self.ppe
         self.is_own = None
