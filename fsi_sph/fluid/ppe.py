@@ -99,24 +99,52 @@ def increment_rhs(A, b, p_n, alpha, dirichlet, nf):
     return out
 
 
-class PressureSolver:
+class KeptPreconditioner:
+    """The reuse policy of a preconditioner kept across steps (module docstring), for the
+    serial solver and PETSc's (fsi_sph/parallel/petsc_ppe.py): ``cfg`` a ``PPESection``."""
+
+    def __init__(self, cfg):
+        self.cfg = cfg
+        self.age = 0  # solves since it was built
+        self.base_iterations = None  # iterations of its first solve
+        self.last_iterations = 0
+
+    def built(self):
+        """A new preconditioner: its age and iteration base start anew."""
+        self.age = 0
+        self.base_iterations = None
+
+    def stale(self):
+        """Due for a rebuild: ``rebuild_every`` solves old, or the last solve's iterations
+        past ``max(rebuild_growth * base, base + 2)``."""
+        if self.age >= self.cfg.rebuild_every:
+            return True
+        base = self.base_iterations
+        if base is None:
+            return False
+        return self.last_iterations > max(self.cfg.rebuild_growth * base, base + 2)
+
+    def solved(self, stats, solver="PPE"):
+        """Count a solve (``PPEStats``); raises ``RuntimeError`` when it did not converge."""
+        self.last_iterations = stats.iterations
+        if self.base_iterations is None:
+            self.base_iterations = stats.iterations
+        self.age += 1
+        if stats.residual > self.cfg.rtol:
+            raise RuntimeError(f"{solver}: no convergence in {self.cfg.maxiter} iterations "
+                               f"(relative residual {stats.residual:.3g} > {self.cfg.rtol:g})")
+
+
+class PressureSolver(KeptPreconditioner):
     """pyamg-preconditioned Krylov solver with the hierarchy-reuse policy of the module
     docstring. ``cfg`` is a ``PPESection``."""
 
     def __init__(self, cfg):
-        self.cfg = cfg
+        super().__init__(cfg)
         self.vcycle = None
-        self.age = 0
-        self.base_iterations = None
-        self.last_iterations = 0
 
     def _needs_rebuild(self, n):
-        if self.vcycle is None or self.vcycle.n != n:
-            return True
-        if self.age >= self.cfg.rebuild_every:
-            return True
-        limit = max(self.cfg.rebuild_growth * self.base_iterations, self.base_iterations + 2)
-        return self.last_iterations > limit
+        return self.vcycle is None or self.vcycle.n != n or self.stale()
 
     def _build(self, A, nf=None):
         if self.cfg.amg == "ruge_stuben":
@@ -141,8 +169,7 @@ class PressureSolver:
         # matrix, which the V-cycle does not use (with it the hierarchy held about 1 kB per
         # fluid particle at 1 M particles; validation/benchmark_scaling.py)
         self.vcycle = amg.VCycle(ml, amg.two_blocks(A, nf) if nf else None)
-        self.age = 0
-        self.base_iterations = None
+        self.built()
 
     def remap(self, old_of_new):
         """The rows were renumbered (open boundaries): keep the hierarchy for the rows that
@@ -157,8 +184,7 @@ class PressureSolver:
         that a run restarted from a snapshot uses the same preconditioners as an
         uninterrupted one (bit-identical restart)."""
         self.vcycle = None
-        self.age = 0
-        self.base_iterations = None
+        self.built()
 
     def solve(self, A, b, x0, nf=None, low_rank=None):
         """Solve ``A p = b`` from the initial guess ``x0`` (the last pressure); returns
@@ -182,13 +208,7 @@ class PressureSolver:
             # a stale hierarchy that no longer preconditions well: rebuild and solve again
             self._timed_build(A, stats, nf)
             p = self._krylov(op, b, p, bnorm, stats)
-        self.last_iterations = stats.iterations
-        if self.base_iterations is None:
-            self.base_iterations = stats.iterations
-        self.age += 1
-        if stats.residual > self.cfg.rtol:
-            raise RuntimeError(f"PPE: no convergence in {self.cfg.maxiter} iterations "
-                               f"(relative residual {stats.residual:.3g} > {self.cfg.rtol:g})")
+        self.solved(stats)
         return p, stats
 
     def _timed_build(self, A, stats, nf=None):
