@@ -38,7 +38,12 @@ def _parser():
     r.add_argument("--restart", metavar="RUN.h5",
                    help="continue this run from its last snapshot (appends to it unless --out "
                    "is given; without CASE the run's stored config is used)")
-    r.add_argument("--threads", type=int, help="numba threads (default: all cores)")
+    r.add_argument("--threads", type=int,
+                   help="numba threads (default: all cores; 1 per rank under mpiexec)")
+    r.add_argument("--ppe", choices=["auto", "petsc", "gather"], default="auto",
+                   help="on several MPI ranks: the pressure solve by PETSc over the ranks or "
+                   "gathered to rank 0 (bit for bit the serial run); auto: PETSc when "
+                   "petsc4py is installed")
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
     r.add_argument("--force", action="store_true",
                    help="run a scene even if its memory estimate exceeds the machine's memory")
@@ -139,7 +144,7 @@ def cmd_run(args):
     log.info("case %s: %s", case, ", ".join(cfg.modules()))
     for pick in cfg.numerics_picked():
         log.info("picked %s", pick)
-    sim = _build(cfg, case, comm)
+    sim = _build(cfg, case, comm, args.ppe)
     log.info("%d particles, set-up %.2f s (JIT compile included)%s", sim.n_particles,
              sim.timings["setup"], f"; the fluid split over {comm.size} ranks ("
              f"{sim.ranks.ppe_engine})" if comm.size > 1 else "")
@@ -159,7 +164,7 @@ def cmd_run(args):
     return 0
 
 
-def _build(cfg, case, comm=None):
+def _build(cfg, case, comm=None, ppe="auto"):
     """The scene's :class:`Simulation` (split over the ranks of ``comm`` when there are
     several); an error found while building it names the file."""
     from fsi_sph.simulation import Simulation
@@ -170,7 +175,7 @@ def _build(cfg, case, comm=None):
         from fsi_sph.parallel.ranks import RankSimulation
 
         try:
-            return RankSimulation(cfg, comm)
+            return RankSimulation(cfg, comm, ppe=ppe)
         except SimulationError as e:  # a scene that is not split yet
             raise UsageError(f"{case}: {e}") from None
     except ConfigError as e:
@@ -251,14 +256,14 @@ def _print_scene(cfg, est, sim):
 
 def _ranks_text(sim):
     """What `mpiexec -n P fsi-sph run` does with this scene (fsi_sph/parallel/ranks.py)."""
-    from fsi_sph.parallel.ranks import HALO_SUPPORTS, PPE_ENGINE, check_scene
+    from fsi_sph.parallel.ranks import HALO_SUPPORTS, check_scene, engine_text
 
     try:
         check_scene(sim)
     except SimulationError as e:
         return str(e)
     return (f"the fluid split into strips, a halo of {HALO_SUPPORTS} kernel supports, "
-            f"{PPE_ENGINE}")
+            f"{engine_text()}")
 
 
 def _flow_step(sim, dt):

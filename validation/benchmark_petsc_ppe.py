@@ -140,7 +140,7 @@ def worker(path):
 
 
 def mpi_row(A, b, cfg, ranks, tmp):
-    from fsi_sph.parallel.petsc_ppe import launcher_env, mpiexec_command
+    from fsi_sph.parallel.launch import launcher_env, mpiexec_command
 
     mpiexec, env = mpiexec_command(), launcher_env()
     if mpiexec is None:

@@ -81,7 +81,8 @@ def one(dx, threads, warm, steps):
     if comm.rank != 0:
         return None
     wall = max(walls)
-    return {"dx": dx, "ranks": comm.size, "threads": threads, "n_fluid": nf,
+    engine = sim.ranks.engine if comm.size > 1 else "serial"
+    return {"dx": dx, "ranks": comm.size, "threads": threads, "n_fluid": nf, "ppe": engine,
             "s_per_step": wall / steps, "particle_steps_per_s": nf * steps / wall,
             "ms_per_step": {k: 1e3 * v / steps for k, v in slowest.items()},
             "halo_bytes_per_step": sent[0] / steps, "halo_messages_per_step": sent[1] / steps,
@@ -93,10 +94,17 @@ def spawn(dx, ranks, threads, warm, steps):
     cmd = [sys.executable, __file__, "--one", str(dx), "--threads", str(threads),
            "--warm", str(warm), "--steps", str(steps)]
     if ranks > 1:
-        mpiexec = Path(sys.executable).with_name("mpiexec")
-        cmd = [str(mpiexec) if mpiexec.exists() else "mpiexec", "-n", str(ranks), *cmd]
-    done = subprocess.run(cmd, capture_output=True, text=True, check=True)
+        from fsi_sph.parallel.launch import mpiexec_command
+
+        cmd = [*mpiexec_command(), "-n", str(ranks), *cmd]
+    done = subprocess.run(cmd, capture_output=True, text=True, check=True, env=_env())
     return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def _env():
+    from fsi_sph.parallel.launch import launcher_env
+
+    return launcher_env()
 
 
 def table(sizes, ranks, warm, steps):

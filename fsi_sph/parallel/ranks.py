@@ -33,6 +33,7 @@ import numpy as np
 from fsi_sph.errors import SimulationError
 from fsi_sph.parallel.decomposition import Strips, needs_rebalance
 from fsi_sph.parallel.halo import Halo, migrate
+from fsi_sph.parallel.ppe_blocks import numbering, petsc_numbering
 from fsi_sph.parallel.ppe_gather import GatheredPressureSolver, RowNumbering
 from fsi_sph.simulation import Simulation
 from fsi_sph.sph.kernels import SUPPORT
@@ -40,8 +41,34 @@ from fsi_sph.sph.kernels import SUPPORT
 #: halo depth in kernel supports (docs/parallel.md: the smallest depth at which the dam
 #: break on 2 ranks repeats the serial run bit for bit, plus a margin)
 HALO_SUPPORTS = 4
-#: how the PPE of a split fluid is solved (ppe_gather.py)
-PPE_ENGINE = "the PPE gathered to rank 0 and solved there by pyamg"
+#: how the PPE of a split fluid is solved: gathered to rank 0 (ppe_gather.py) or by PETSc
+#: over the ranks (ppe_blocks.py, petsc_ppe.py)
+ENGINES = {"gather": "the PPE gathered to rank 0 and solved there by pyamg",
+           "petsc": "the PPE solved by PETSc over the ranks"}
+
+
+def ppe_engine(choice="auto"):
+    """``"petsc"`` when asked or (``"auto"``) when petsc4py is installed, else
+    ``"gather"``; asking for PETSc without it raises :class:`SimulationError`."""
+    from fsi_sph.parallel import petsc_ppe
+
+    if choice not in ("auto", "petsc", "gather"):
+        raise SimulationError(f"PPE engine {choice!r}: allowed auto, petsc, gather")
+    if choice == "petsc" and not petsc_ppe.available():
+        raise SimulationError("PPE engine petsc: petsc4py is not installed "
+                              "(docs/parallel.md, Install)")
+    if choice == "auto":
+        return "petsc" if petsc_ppe.available() else "gather"
+    return choice
+
+
+def engine_text(choice="auto"):
+    """What the PPE on several ranks will be (``fsi-sph info``)."""
+    from fsi_sph.parallel import petsc_ppe
+
+    engine = ppe_engine(choice)
+    return ENGINES[engine] + (f" ({petsc_ppe.engine()})" if engine == "petsc" else
+                              " (petsc4py not installed)")
 #: the strips are cut anew when the busiest rank has this much more than the mean (issue 32)
 REBALANCE = 0.10
 
@@ -84,7 +111,7 @@ def set_fluid_rows(fl, arrays):
 class FluidOnRanks:
     """The split of ``sim.fluid`` over the ranks of ``comm`` (module docstring)."""
 
-    def __init__(self, sim, comm, halo_supports=HALO_SUPPORTS):
+    def __init__(self, sim, comm, halo_supports=HALO_SUPPORTS, ppe="auto"):
         check_scene(sim)
         self.comm = comm
         self.fluid = fl = sim.fluid
@@ -94,8 +121,14 @@ class FluidOnRanks:
         self.x_walls = fl.x_all[fl.nf:fl.nf + fl.n_fixed].copy()
         self.strips = Strips.balanced(comm, x if comm.rank == 0 else x[:0])
         self.own_from_body()
-        self.ppe = GatheredPressureSolver(fl.cfg.ppe, comm)
-        self.ppe_engine = PPE_ENGINE
+        self.engine = ppe_engine(ppe)
+        if self.engine == "petsc":
+            from fsi_sph.parallel.ppe_blocks import BlockPressureSolver
+
+            self.ppe = BlockPressureSolver(fl.cfg.ppe, comm, self)
+        else:
+            self.ppe = GatheredPressureSolver(fl.cfg.ppe, comm)
+        self.ppe_engine = ENGINES[self.engine]
         fl.pressure.ppe = self.ppe
         fl.pressure.increments.ppe = self.ppe
         self.is_own = None
@@ -112,6 +145,10 @@ class FluidOnRanks:
             self.strips = Strips.balanced(comm, self.own["x"])
             self.rebalanced += 1
         own = migrate(comm, self.strips, self.own)
+        wall_own = self.strips.owner(self.x_walls)
+        if self.engine == "petsc":  # PETSc's rows: a block per rank (ppe_blocks.py)
+            own["prow"], wall_rows, self.ppe.row_start, n_rows = petsc_numbering(
+                comm, own["gid"], wall_own)
         self.halo = Halo.build(comm, self.strips, own["x"], self.width)
         ghost = {}
         for k, a in own.items():
@@ -119,17 +156,38 @@ class FluidOnRanks:
             self.traffic[0] += self.halo.bytes_last
             self.traffic[1] += self.halo.messages_last
         gid = np.concatenate([own["gid"], ghost["gid"]])
-        order = np.argsort(gid, kind="stable")
-        self.is_own = order < len(own["gid"])
+        self.order = order = np.argsort(gid, kind="stable")
+        self.n_own = len(own["gid"])
+        self.is_own = order < self.n_own
         self.gid = gid[order]
         set_fluid_rows(fl, {k: np.concatenate([own[k], ghost[k]])[order]
                             for k in fl.body.arrays})
         self.x_start = fl.body["x"].copy()
-        wall_own = self.strips.owner(self.x_walls) == comm.rank
+        self.wall_own = wall_own == comm.rank
+        n_global = self.nf_global + len(self.x_walls)
+        if self.engine == "petsc":
+            prow = np.concatenate([own["prow"], ghost["prow"]])[order]
+            self.ppe.rows = numbering(prow, wall_rows, self.is_own, self.wall_own, n_rows,
+                                      self.nf_global)
+            return
         global_row = np.concatenate([self.gid, self.nf_global + np.arange(len(self.x_walls))])
-        owned = np.flatnonzero(np.concatenate([self.is_own, wall_own]))
-        self.ppe.rows = RowNumbering(global_row, owned, self.nf_global + len(self.x_walls),
-                                     self.nf_global)
+        owned = np.flatnonzero(np.concatenate([self.is_own, self.wall_own]))
+        self.ppe.rows = RowNumbering(global_row, owned, n_global, self.nf_global)
+
+    def spread(self, x):
+        """A solution over this rank's block (its own fluid rows in global-id order, then
+        its walls) to every stacked row: the ghosts' values from their owners (the halo),
+        the walls' from every rank (an all-gather). Collective."""
+        n_fluid = int(np.count_nonzero(self.is_own))
+        own_vals = np.empty(self.n_own)
+        own_vals[self.order[self.is_own]] = x[:n_fluid]
+        ghost_vals = self.halo.exchange(own_vals)
+        out = np.empty(len(self.order) + len(self.x_walls))
+        out[:len(self.order)] = np.concatenate([own_vals, ghost_vals])[self.order]
+        walls = self.comm.allgather((np.flatnonzero(self.wall_own), x[n_fluid:]))
+        for index, vals in walls:
+            out[len(self.order) + index] = vals
+        return out
 
     def collect(self):
         """After the step: the owned particles' fields from the fluid body (the ghosts'
@@ -174,9 +232,9 @@ class RankSimulation(Simulation):
     """A :class:`Simulation` whose fluid is split over the ranks of ``comm``: every rank
     builds the scene, keeps its strip's particles, and steps them with the others."""
 
-    def __init__(self, cfg, comm, halo_supports=HALO_SUPPORTS):
+    def __init__(self, cfg, comm, halo_supports=HALO_SUPPORTS, ppe="auto"):
         super().__init__(cfg)
-        self.ranks = FluidOnRanks(self, comm, halo_supports)
+        self.ranks = FluidOnRanks(self, comm, halo_supports, ppe)
         self.writes_output = comm.rank == 0
         self.viewed = 0  # the step whose global state the fluid body holds (None: none)
 

@@ -31,10 +31,12 @@ def main(argv=None):
     ap.add_argument("--dx", type=float, default=0.02)
     ap.add_argument("--halo", type=float, default=None)
     ap.add_argument("--identical", action="store_true")
+    ap.add_argument("--ppe", default="gather", help="auto, petsc or gather")
     args = ap.parse_args(argv)
     comm = MPI.COMM_WORLD
     sets = [f"case.dx={args.dx}"]
-    kw = {} if args.halo is None else {"halo_supports": args.halo}
+    kw = {"ppe": args.ppe} if args.halo is None else {"halo_supports": args.halo,
+                                                      "ppe": args.ppe}
     par = RankSimulation(load_config(CASE, sets), comm, **kw)
     for _ in range(args.steps):
         par.step()
@@ -52,13 +54,13 @@ def main(argv=None):
     worst["walls.p"] = float(np.max(np.abs(walls_p - ser.fluid.walls.body["p"])))
     same = all(np.array_equal(got[k], ser.fluid.body[k]) for k in FIELDS)
     same = same and np.array_equal(walls_p, ser.fluid.walls.body["p"])
-    print(f"ranks {comm.size}: owned {n_own}, rebalanced {par.ranks.rebalanced}, t {par.t:.6g} vs {ser.t:.6g}, "
+    print(f"ranks {comm.size} ({par.ranks.engine}): owned {n_own}, rebalanced {par.ranks.rebalanced}, t {par.t:.12g} vs {ser.t:.12g}, "
           f"identical {same}, largest differences {worst}", flush=True)
-    if par.t != ser.t:
-        return 1
     if args.identical:
-        return 0 if same else 1
-    return 0 if worst["x"] <= 1e-7 * 5.0 else 1
+        return 0 if same and par.t == ser.t else 1
+    # another solver's iterates (rtol 1e-6): positions within 1e-7 of the domain's size (5 m)
+    # after the same number of steps, whose sizes (from the fastest particle) differ too
+    return 0 if worst["x"] <= 1e-7 * 5.0 and abs(par.t - ser.t) <= 1e-7 * ser.t else 1
 
 
 if __name__ == "__main__":

@@ -2,14 +2,13 @@
 one rank and (petsc_checks.py under mpiexec) on two. Skipped without petsc4py (Debian:
 ``apt-get install python3-petsc4py``; the PETSc venv of README)."""
 
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from fsi_sph.parallel import petsc_ppe
+from fsi_sph.parallel import launch, petsc_ppe
+from tests.parallel.launch import run_mpi
 
 ROOT = Path(__file__).resolve().parents[2]
 CHECKS = Path(__file__).with_name("petsc_checks.py")
@@ -130,19 +129,12 @@ def test_zero_rhs_gives_zero(ppe):
 
 @needs_petsc
 def test_two_ranks_match_one_rank(ppe, tmp_path):
-    pytest.importorskip("mpi4py")
     from tests.parallel.petsc_checks import save_ppe
 
-    mpiexec = petsc_ppe.mpiexec_command()
-    if mpiexec is None:
-        pytest.skip("no mpiexec of mpi4py's MPI library next to Python, mpicc or on PATH")
     A, b, x0, nf, cfg = ppe
     path = tmp_path / "ppe.npz"
     save_ppe(path, A, b)
-    done = subprocess.run([*mpiexec, "-n", "2", sys.executable, str(CHECKS), str(path)],
-                          cwd=ROOT, capture_output=True, text=True, timeout=MPI_TIMEOUT,
-                          env=petsc_ppe.launcher_env())
-    print(done.stdout, done.stderr)
+    done = run_mpi(2, CHECKS, [str(path)], MPI_TIMEOUT)
     assert done.returncode == 0, done.stdout + done.stderr
     assert "petsc_checks OK" in done.stdout
 
@@ -150,5 +142,5 @@ def test_two_ranks_match_one_rank(ppe, tmp_path):
 def test_launcher_env_drops_mpi_variables(monkeypatch):
     monkeypatch.setenv("OMPI_COMM_WORLD_RANK", "1")
     monkeypatch.setenv("PMIX_RANK", "1")
-    env = petsc_ppe.launcher_env()
+    env = launch.launcher_env()
     assert "OMPI_COMM_WORLD_RANK" not in env and "PMIX_RANK" not in env and "PATH" in env
