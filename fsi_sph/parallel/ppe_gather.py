@@ -71,8 +71,7 @@ class GatheredPressureSolver:
         stats = failure = None
         if self.comm.rank == 0:
             try:
-                p[:], stats = self.solve_here(*global_system(parts, rows.n_global),
-                                              rows.nf_global)
+                p[:], stats = self.solve_here(parts, rows)
             except RuntimeError as e:  # every rank fails with it, none waits
                 failure = str(e)
         wait_quietly(self.comm.Ibcast(p, root=0))
@@ -83,13 +82,15 @@ class GatheredPressureSolver:
         stats.solve_time = time.perf_counter() - t0 - stats.setup_time
         return p[rows.global_row], stats
 
-    def solve_here(self, A, b, x0, nf):
-        """The serial solve on rank 0 with the numba threads of every rank of this node
-        (they wait for the result without spinning: :func:`wait_quietly`)."""
+    def solve_here(self, parts, rows):
+        """The global system put together from the ranks' ``parts`` and solved by the
+        serial solver, on rank 0 with the numba threads of every rank of this node (they
+        wait for the result without spinning: :func:`wait_quietly`)."""
         threads = numba.get_num_threads()
         numba.set_num_threads(min(numba.config.NUMBA_NUM_THREADS, threads * self.node_ranks))
         try:
-            return self.serial.solve(A, b, x0, nf)
+            A, b, x0 = global_system(parts, rows.n_global)
+            return self.serial.solve(A, b, x0, rows.nf_global)
         finally:
             numba.set_num_threads(threads)
 
