@@ -146,8 +146,9 @@ def cmd_run(args):
         log.info("picked %s", pick)
     sim = _build(cfg, case, comm, args.ppe)
     log.info("%d particles, set-up %.2f s (JIT compile included)%s", sim.n_particles,
-             sim.timings["setup"], f"; the fluid split over {comm.size} ranks ("
-             f"{sim.ranks.ppe_engine})" if comm.size > 1 else "")
+             sim.timings["setup"], f"; {', '.join(sim.split)} split over {comm.size} ranks"
+             + (f" ({sim.ranks.ppe_engine})" if sim.fluid is not None else "")
+             if comm.size > 1 else "")
     try:
         s = sim.run(out_dir=out, max_steps=args.max_steps, progress=not args.no_progress,
                     case_file=str(case), resume=resume)
@@ -262,6 +263,8 @@ def _ranks_text(sim):
         check_scene(sim)
     except SimulationError as e:
         return str(e)
+    if sim.fluid is None:
+        return (f"the soils split into strips, a halo of {HALO_SUPPORTS} kernel supports")
     return (f"the fluid split into strips, a halo of {HALO_SUPPORTS} kernel supports, "
             f"{engine_text()}")
 

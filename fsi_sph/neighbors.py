@@ -97,7 +97,7 @@ def _compact(slot_start, slots, start, out_j):
             out_j[start[i] + k] = slots[a + k]
 
 
-def find_neighbors(xd, xs, radius, exclude_self=False):
+def find_neighbors(xd, xs, radius, exclude_self=False, origin=None):
     """Neighbours of each destination point among the sources, within ``radius``.
 
     Parameters
@@ -106,6 +106,10 @@ def find_neighbors(xd, xs, radius, exclude_self=False):
     xs : (ns, 2) float64 array, source positions.
     radius : float, search radius (kernel support, ``2 h``).
     exclude_self : bool, leave out ``j == i`` (only meaningful when ``xd is xs``).
+    origin : (2,) lower corner of the cell grid (default: the points' lower corner less
+        ``radius``); it must lie below and left of every point. The order of the sources
+        within a row depends on it, so a body split over ranks gives every rank the serial
+        run's corner (fsi_sph/parallel/split.py).
 
     Returns
     -------
@@ -120,7 +124,7 @@ def find_neighbors(xd, xs, radius, exclude_self=False):
     lo_d, hi_d, lo_s, hi_s = (np.empty(2) for _ in range(4))
     _bounds(xd, lo_d, hi_d)
     _bounds(xs, lo_s, hi_s)
-    lo = np.minimum(lo_d, lo_s) - radius
+    lo = np.minimum(lo_d, lo_s) - radius if origin is None else np.asarray(origin, np.float64)
     hi = np.maximum(hi_d, hi_s) + radius
     ncx = max(int((hi[0] - lo[0]) / radius) + 1, 1)
     ncy = max(int((hi[1] - lo[1]) / radius) + 1, 1)

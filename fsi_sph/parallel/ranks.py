@@ -6,7 +6,8 @@ supports of its strip (the ghosts, :mod:`.halo`). At the start of every step the
 that crossed a cut move to their new owner and the ghosts are copied anew from their owners
 (one exchange of every field); the rank then runs the serial fluid step on its own particles
 and ghosts together, with the serial code unchanged, except that the PPE is one global
-system (:mod:`.ppe_gather`: each rank's own rows, solved together). A ghost near the halo's
+system of the ranks' own rows, gathered and solved on rank 0 (:mod:`.ppe_gather`) or solved
+by PETSc over the ranks (:mod:`.ppe_blocks`). A ghost near the halo's
 outer edge has a truncated support and comes out wrong; that error travels inwards by one
 support per operator that reads a neighbour's result, so a halo deeper than the step's chain
 of such operators leaves every owned particle exact, and the ghosts' results are dropped.
@@ -16,7 +17,8 @@ measurement behind ``HALO_SUPPORTS``).
 
 The local rows are kept in global-id order (owned and ghosts interleaved), so every
 neighbour list, every sum over it and the PPE gathered on rank 0 are those of the serial
-run: the fluid on P ranks is the serial run bit for bit (tests/parallel/test_fluid_ranks.py).
+run: with the gathered PPE the fluid on P ranks is the serial run bit for bit
+(tests/parallel/test_fluid_ranks.py); with PETSc's, within its solver's tolerance.
 
 Supported: the fluid with its fixed walls (the walls are small and every rank holds all of
 them; each is owned, as a row of the PPE, by the rank of its strip). Structures, soils, open
@@ -31,10 +33,9 @@ import time
 import numpy as np
 
 from fsi_sph.errors import SimulationError
-from fsi_sph.parallel.decomposition import Strips, needs_rebalance
-from fsi_sph.parallel.halo import Halo, migrate
 from fsi_sph.parallel.ppe_blocks import numbering, petsc_numbering
 from fsi_sph.parallel.ppe_gather import GatheredPressureSolver, RowNumbering
+from fsi_sph.parallel.split import BodyOnRanks, SoilOnRanks
 from fsi_sph.simulation import Simulation
 from fsi_sph.sph.kernels import SUPPORT
 
@@ -69,19 +70,21 @@ def engine_text(choice="auto"):
     engine = ppe_engine(choice)
     return ENGINES[engine] + (f" ({petsc_ppe.engine()})" if engine == "petsc" else
                               " (petsc4py not installed)")
-#: the strips are cut anew when the busiest rank has this much more than the mean (issue 32)
-REBALANCE = 0.10
 
 
 def check_scene(sim):
     """Raise :class:`SimulationError` naming what a scene holds that is not split over
-    ranks yet (the run works on one rank)."""
+    ranks yet (the run works on one rank). Split: a fluid with its fixed walls, or
+    Drucker-Prager soils alone."""
     fl = sim.fluid
     missing = []
-    if fl is None:
-        missing.append("a scene without a fluid")
-    if sim.structures:
-        missing.append("structures or soils (" + ", ".join(sim.structures) + ")")
+    solids = [n for n, b in sim.structures.items() if b.body.kind != "soil"]
+    if fl is None and not sim.structures:
+        missing.append("a scene without a fluid or a soil")
+    if solids:
+        missing.append("structures (" + ", ".join(solids) + ")")
+    if fl is not None and len(solids) < len(sim.structures):
+        missing.append("a fluid and a soil together")
     if fl is not None and fl.open is not None:
         missing.append("open boundaries")
     if fl is not None and fl.periodic is not None:
@@ -108,19 +111,16 @@ def set_fluid_rows(fl, arrays):
     fl.resized()
 
 
-class FluidOnRanks:
-    """The split of ``sim.fluid`` over the ranks of ``comm`` (module docstring)."""
+class FluidOnRanks(BodyOnRanks):
+    """The split of ``sim.fluid`` over the ranks of ``comm`` (module docstring): its walls,
+    held whole by every rank, and its PPE, one global system."""
 
     def __init__(self, sim, comm, halo_supports=HALO_SUPPORTS, ppe="auto"):
-        check_scene(sim)
-        self.comm = comm
-        self.fluid = fl = sim.fluid
-        self.width = halo_supports * SUPPORT * fl.h
-        x = fl.body["x"]
+        fl = sim.fluid
+        super().__init__(comm, fl, halo_supports * SUPPORT * fl.h)
+        self.fluid = fl
         self.nf_global = fl.nf
         self.x_walls = fl.x_all[fl.nf:fl.nf + fl.n_fixed].copy()
-        self.strips = Strips.balanced(comm, x if comm.rank == 0 else x[:0])
-        self.own_from_body()
         self.engine = ppe_engine(ppe)
         if self.engine == "petsc":
             from fsi_sph.parallel.ppe_blocks import BlockPressureSolver
@@ -131,48 +131,34 @@ class FluidOnRanks:
         self.ppe_engine = ENGINES[self.engine]
         fl.pressure.ppe = self.ppe
         fl.pressure.increments.ppe = self.ppe
-        self.is_own = None
-        self.halo = None
-        self.rebalanced = 0  # times the strips were cut anew
         self.x_start = None  # the rows' positions at the start of the last step
-        self.traffic = [0, 0]  # bytes and messages this rank sent in the ghost exchanges
+        self.wall_own = None
+
+    def numbered(self, own):
+        """With PETSc, each owned particle's row of the PPE goes with the ghosts."""
+        self.wall_owner = self.strips.owner(self.x_walls)
+        if self.engine == "petsc":  # PETSc's rows: a block per rank (ppe_blocks.py)
+            own["prow"], self.wall_rows, self.ppe.row_start, self.n_rows = petsc_numbering(
+                self.comm, own["gid"], self.wall_owner)
+        return own
+
+    def relayout(self, arrays):
+        set_fluid_rows(self.fluid, arrays)
 
     def distribute(self):
-        """Owned particles to their strips, ghosts copied anew, the fluid's rows laid out
-        in global-id order, the PPE's global numbering set."""
-        comm, fl = self.comm, self.fluid
-        if needs_rebalance(comm, len(self.own["gid"]), REBALANCE):
-            self.strips = Strips.balanced(comm, self.own["x"])
-            self.rebalanced += 1
-        own = migrate(comm, self.strips, self.own)
-        wall_own = self.strips.owner(self.x_walls)
-        if self.engine == "petsc":  # PETSc's rows: a block per rank (ppe_blocks.py)
-            own["prow"], wall_rows, self.ppe.row_start, n_rows = petsc_numbering(
-                comm, own["gid"], wall_own)
-        self.halo = Halo.build(comm, self.strips, own["x"], self.width)
-        ghost = {}
-        for k, a in own.items():
-            ghost[k] = self.halo.exchange(a)
-            self.traffic[0] += self.halo.bytes_last
-            self.traffic[1] += self.halo.messages_last
-        gid = np.concatenate([own["gid"], ghost["gid"]])
-        self.order = order = np.argsort(gid, kind="stable")
-        self.n_own = len(own["gid"])
-        self.is_own = order < self.n_own
-        self.gid = gid[order]
-        set_fluid_rows(fl, {k: np.concatenate([own[k], ghost[k]])[order]
-                            for k in fl.body.arrays})
-        self.x_start = fl.body["x"].copy()
-        self.wall_own = wall_own == comm.rank
-        n_global = self.nf_global + len(self.x_walls)
+        """:meth:`BodyOnRanks.distribute`, then the PPE's global numbering of the rows."""
+        own, ghost = super().distribute()
+        self.x_start = self.fluid.body["x"].copy()
+        self.wall_own = self.wall_owner == self.comm.rank
         if self.engine == "petsc":
-            prow = np.concatenate([own["prow"], ghost["prow"]])[order]
-            self.ppe.rows = numbering(prow, wall_rows, self.is_own, self.wall_own, n_rows,
-                                      self.nf_global)
+            prow = np.concatenate([own["prow"], ghost["prow"]])[self.order]
+            self.ppe.rows = numbering(prow, self.wall_rows, self.is_own, self.wall_own,
+                                      self.n_rows, self.nf_global)
             return
         global_row = np.concatenate([self.gid, self.nf_global + np.arange(len(self.x_walls))])
         owned = np.flatnonzero(np.concatenate([self.is_own, self.wall_own]))
-        self.ppe.rows = RowNumbering(global_row, owned, n_global, self.nf_global)
+        self.ppe.rows = RowNumbering(global_row, owned, self.nf_global + len(self.x_walls),
+                                     self.nf_global)
 
     def spread(self, x):
         """A solution over this rank's block (its own fluid rows in global-id order, then
@@ -190,67 +176,57 @@ class FluidOnRanks:
         return out
 
     def collect(self):
-        """After the step: the owned particles' fields from the fluid body (the ghosts'
-        results are dropped)."""
-        b = self.fluid.body
-        self.own = {k: a[self.is_own].copy() for k, a in b.arrays.items()}
-        self.own["gid"] = self.gid[self.is_own]
+        super().collect()
         self.own["x_start"] = self.x_start[self.is_own]
 
-    def own_from_body(self):
-        """This rank's particles taken from the fluid body when it holds every particle in
-        global-id order (at the start, after a restart's state was loaded)."""
-        b = self.fluid.body
-        mine = self.strips.owner(b["x"]) == self.comm.rank
-        self.own = {k: a[mine].copy() for k, a in b.arrays.items()}
-        self.own["gid"] = np.flatnonzero(mine).astype(np.int64)
-
     def global_view(self):
-        """Every fluid particle's fields in the fluid body, in global-id order (the serial
-        run's layout), with neighbour lists for it; collective. The guard, the probes and
-        the output read the fluid there, as in a serial run; the next step starts from the
-        owned particles again."""
+        """Every fluid particle in the fluid body in global-id order, with the step's
+        neighbour lists (built at the step's start positions, as the serial run's); the
+        guard, the probes and the output read the fluid there as in a serial run."""
         fl = self.fluid
         whole = {k: self.gathered(k) for k in fl.body.arrays}
         set_fluid_rows(fl, whole)
-        if self.x_start is not None:  # the step's lists: at its start, as the serial run's
+        if self.x_start is not None:
             fl.body["x"][:] = self.gathered("x_start")
         fl.update_neighbors()
         fl.body["x"][:] = whole["x"]
         fl.sync()
 
-    def gathered(self, name):
-        """Field ``name`` of every fluid particle in global-id order, on every rank."""
-        parts = self.comm.allgather((self.own["gid"], self.own[name]))
-        gid = np.concatenate([p[0] for p in parts])
-        out = np.empty((self.nf_global, *self.own[name].shape[1:]), self.own[name].dtype)
-        out[gid] = np.concatenate([p[1] for p in parts])
-        return out
-
 
 class RankSimulation(Simulation):
-    """A :class:`Simulation` whose fluid is split over the ranks of ``comm``: every rank
-    builds the scene, keeps its strip's particles, and steps them with the others."""
+    """A :class:`Simulation` whose fluid, or whose soils, are split over the ranks of
+    ``comm``: every rank builds the scene, keeps its strips' particles, and steps them with
+    the others (``self.split``: one :class:`BodyOnRanks` per split body; ``self.ranks``:
+    the fluid's, or the first soil's)."""
 
     def __init__(self, cfg, comm, halo_supports=HALO_SUPPORTS, ppe="auto"):
         super().__init__(cfg)
-        self.ranks = FluidOnRanks(self, comm, halo_supports, ppe)
+        check_scene(self)
+        self.comm = comm
+        if self.fluid is not None:
+            self.split = {"fluid": FluidOnRanks(self, comm, halo_supports, ppe)}
+        else:
+            self.split = {name: SoilOnRanks(comm, body, halo_supports * SUPPORT * body.h)
+                          for name, body in self.structures.items()}
+        self.ranks = next(iter(self.split.values()))
         self.writes_output = comm.rank == 0
-        self.viewed = 0  # the step whose global state the fluid body holds (None: none)
+        self.viewed = 0  # the step whose global state the bodies hold (None: none)
 
     def gather_view(self):
-        """The fluid body holds every particle (:meth:`FluidOnRanks.global_view`), once per
+        """Every split body holds every particle (:meth:`BodyOnRanks.global_view`), once per
         step; collective."""
         if self.viewed != self.n_steps:
-            self.ranks.global_view()
+            for part in self.split.values():
+                part.global_view()
             self.viewed = self.n_steps
 
     def load_state(self, clock, state):
         """A restart: the whole state is loaded as in a serial run, then each rank takes
-        its strip's particles (the file holds them by global id, whatever the ranks that
+        its strips' particles (the file holds them by global id, whatever the ranks that
         wrote it)."""
         super().load_state(clock, state)
-        self.ranks.own_from_body()
+        for part in self.split.values():
+            part.own_from_body()
         self.viewed = self.n_steps
 
     def step_limits(self):
@@ -259,18 +235,21 @@ class RankSimulation(Simulation):
         limits, dt = super().step_limits()
         from mpi4py import MPI
 
-        return limits, self.ranks.comm.allreduce(dt, op=MPI.MIN)
+        return limits, self.comm.allreduce(dt, op=MPI.MIN)
 
     def step(self, dt_max=math.inf, to_end=False):
         """One step of every rank's particles (:meth:`Simulation.step` on the rank's own
         particles and ghosts); the particle-steps counted are the owned ones over all
         ranks."""
         t0 = time.perf_counter()
-        self.ranks.distribute()
+        for part in self.split.values():
+            part.distribute()
         self.timings["exchange"] += time.perf_counter() - t0
         self.viewed = None
         counted = self.particle_steps
-        out = super().step(dt_max, to_end)
-        self.particle_steps = counted + self.ranks.nf_global
-        self.ranks.collect()
-        return out
+        dt, n_sub = super().step(dt_max, to_end)
+        self.particle_steps = counted + sum(part.n_global * n_sub.get(name, 1)
+                                            for name, part in self.split.items())
+        for part in self.split.values():
+            part.collect()
+        return dt, n_sub

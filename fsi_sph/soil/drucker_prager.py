@@ -88,6 +88,9 @@ class DruckerPragerBody:
             self._geostatic(cfg.initial_stress.k0)
         self.aw = np.zeros((b.n, max(len(self.walls[0]), 1), 2))
         self._alloc_work(max(16, b.n // 2))
+        # the lower corner of the neighbour search's cell grid from this body's (None: its
+        # own); a body split over ranks takes the corner of all of them (parallel/split.py)
+        self.grid_origin = None
         self.n_sub = 0
         self._compile()
         self.n_sub = 0
@@ -123,6 +126,12 @@ class DruckerPragerBody:
         # the density that goes with the elastic volumetric strain of that stress
         i1 = b["sigma"][:, 0, 0] + b["sigma"][:, 1, 1] + b["szz"]
         b["rho"][:] = self.rho0 / (1.0 + i1 / (3.0 * self.K))
+
+    def resized(self):
+        """A new particle count (a rank's own particles and ghosts,
+        fsi_sph/parallel/split.py): the work arrays follow it."""
+        self.aw = np.zeros((self.body.n, max(len(self.walls[0]), 1), 2))
+        self._alloc_work(max(16, self.body.n // 2))
 
     def _alloc_work(self, cap):
         n = self.body.n
@@ -169,8 +178,11 @@ class DruckerPragerBody:
         self.ng = ng
         self.gwall[:ng] = np.where(self.wb[:ng] < 0, self.wa[:ng], -1)
         tot = n + ng
+        origin = None
+        if self.grid_origin is not None:  # split over ranks: the serial run's cell grid
+            origin = self.grid_origin(self.xa[:tot].min(axis=0) - radius)
         self.nbr_start, self.nbr_j = find_neighbors(b["x"], self.xa[:tot], radius,
-                                                    exclude_self=True)
+                                                    exclude_self=True, origin=origin)
         self.refresh_ghosts()
 
     def refresh_ghosts(self):

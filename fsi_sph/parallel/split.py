@@ -1,0 +1,117 @@
+"""One body's particles split over MPI ranks (the fluid's and a soil's alike;
+fsi_sph/parallel/ranks.py has the design): strips cut for equal work, the owned particles,
+their migration, the ghosts of a deep halo, the rows in global-id order, and the whole body
+gathered for the guard, the probes and the output."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from fsi_sph.parallel.decomposition import Strips, needs_rebalance
+from fsi_sph.parallel.halo import Halo, migrate
+
+#: the strips are cut anew when the busiest rank has this much more than the mean (issue 32)
+REBALANCE = 0.10
+
+
+class BodyOnRanks:
+    """The particles of ``obj.body`` (its serial row is a particle's global id) split over
+    the ranks of ``comm`` with a halo ``width`` deep. Subclasses lay the rows out in their
+    body (:meth:`relayout`) and may add fields to the exchange (:meth:`numbered`)."""
+
+    def __init__(self, comm, obj, width):
+        self.comm = comm
+        self.obj = obj
+        self.width = width
+        x = obj.body["x"]
+        self.n_global = len(x)
+        self.strips = Strips.balanced(comm, x if comm.rank == 0 else x[:0])
+        self.own_from_body()
+        self.is_own = self.order = self.gid = self.halo = None
+        self.n_own = 0
+        self.rebalanced = 0  # times the strips were cut anew
+        self.traffic = [0, 0]  # bytes and messages this rank sent in the ghost exchanges
+
+    def own_from_body(self):
+        """This rank's particles taken from the body when it holds every particle in
+        global-id order (at the start, after a restart's state was loaded)."""
+        b = self.obj.body
+        mine = self.strips.owner(b["x"]) == self.comm.rank
+        self.own = {k: a[mine].copy() for k, a in b.arrays.items()}
+        self.own["gid"] = np.flatnonzero(mine).astype(np.int64)
+
+    def distribute(self):
+        """Owned particles to their strips (cut anew past ``REBALANCE``), ghosts copied
+        anew from their owners, the body's rows laid out in global-id order; returns
+        ``(own, ghost)``, the exchanged dicts (a subclass numbers rows from them)."""
+        comm = self.comm
+        if needs_rebalance(comm, len(self.own["gid"]), REBALANCE):
+            self.strips = Strips.balanced(comm, self.own["x"])
+            self.rebalanced += 1
+        own = self.numbered(migrate(comm, self.strips, self.own))
+        self.halo = Halo.build(comm, self.strips, own["x"], self.width)
+        ghost = {}
+        for k, a in own.items():
+            ghost[k] = self.halo.exchange(a)
+            self.traffic[0] += self.halo.bytes_last
+            self.traffic[1] += self.halo.messages_last
+        gid = np.concatenate([own["gid"], ghost["gid"]])
+        self.order = order = np.argsort(gid, kind="stable")
+        self.n_own = len(own["gid"])
+        self.is_own = order < self.n_own
+        self.gid = gid[order]
+        self.relayout({k: np.concatenate([own[k], ghost[k]])[order]
+                       for k in self.obj.body.arrays})
+        return own, ghost
+
+    def numbered(self, own):
+        """The owned particles' dict before the ghost exchange (a subclass adds fields)."""
+        return own
+
+    def relayout(self, arrays):
+        """The body becomes the rows ``arrays`` (every field of the body)."""
+        raise NotImplementedError
+
+    def collect(self):
+        """After the step: the owned particles' fields from the body (the ghosts' results
+        are dropped)."""
+        b = self.obj.body
+        self.own = {k: a[self.is_own].copy() for k, a in b.arrays.items()}
+        self.own["gid"] = self.gid[self.is_own]
+
+    def gathered(self, name):
+        """Field ``name`` of every particle in global-id order, on every rank."""
+        parts = self.comm.allgather((self.own["gid"], self.own[name]))
+        gid = np.concatenate([p[0] for p in parts])
+        out = np.empty((self.n_global, *self.own[name].shape[1:]), self.own[name].dtype)
+        out[gid] = np.concatenate([p[1] for p in parts])
+        return out
+
+    def global_view(self):
+        """Every particle's fields in the body, in global-id order (the serial run's
+        layout); collective."""
+        self.relayout({k: self.gathered(k) for k in self.obj.body.arrays})
+
+
+class SoilOnRanks(BodyOnRanks):
+    """A Drucker-Prager soil body split over ranks: each rank sub-steps its own particles
+    and ghosts by the serial sub-step (one sub-step per step in a soil scene)."""
+
+    def __init__(self, comm, obj, width):
+        super().__init__(comm, obj, width)
+        obj.grid_origin = self.lowest_corner
+
+    def lowest_corner(self, corner):
+        """The serial run's cell grid for the neighbour search: the lowest corner over the
+        ranks (the order of the neighbours within a row, and so every sum over them,
+        follows the grid; collective)."""
+        from fsi_sph.parallel.comm import global_reduce
+
+        return global_reduce(self.comm, np.asarray(corner, dtype=np.float64), "min")
+
+    def relayout(self, arrays):
+        b = self.obj.body
+        b.select(np.zeros(b.n, dtype=bool), len(arrays["x"]))
+        for k in b.arrays:
+            b[k][:] = arrays[k]
+        self.obj.resized()
