@@ -100,6 +100,10 @@ class FsiCoupling:
         self.power_structure = 0.0
         self.power_fluid = 0.0
         self.n_sub = {}
+        # on several ranks: each structure particle's force taken from the rank that owns
+        # it (fsi_sph/parallel/ranks.py); None in a serial run
+        self.owned_rows = None
+        self.fluid_power = interface_power  # (on several ranks: over every rank's fluid)
 
     def before_fluid(self):
         for b, sl in zip(self.bodies, self.slices, strict=True):
@@ -173,6 +177,8 @@ class FsiCoupling:
         """Sub-cycle every coupled structure over ``dt`` with its interface force held (plus
         the reaction of the fluid's kinematic guard at the structure surfaces, if it acted)."""
         force = self.on_structure + self.fluid.guard_force
+        if self.owned_rows is not None:
+            force = self.owned_rows(force)
         for b, sl in zip(self.bodies, self.slices, strict=True):
             b.body["f_ext"][:] = force[sl]
             v0 = b.body["v"].copy()
@@ -183,5 +189,5 @@ class FsiCoupling:
             b.body["a_bar"][:] = self.a_bar[sl]
             self.n_sub[b.name] = n
         self.power_structure = interface_power(force, self.v_bar)
-        self.power_fluid = interface_power(self.on_fluid, self.fluid.body["v"])
+        self.power_fluid = self.fluid_power(self.on_fluid, self.fluid.body["v"])
         return self.n_sub

@@ -81,10 +81,12 @@ def check_scene(sim):
     solids = [n for n, b in sim.structures.items() if b.body.kind != "soil"]
     if fl is None and not sim.structures:
         missing.append("a scene without a fluid or a soil")
-    if solids:
-        missing.append("structures (" + ", ".join(solids) + ")")
+    if solids and fl is None:
+        missing.append("structures without a fluid (" + ", ".join(solids) + ")")
     if fl is not None and len(solids) < len(sim.structures):
         missing.append("a fluid and a soil together")
+    if sim.coupling is not None and sim.coupling.scheme == "rigid":
+        missing.append("free bodies (their rigid-body terms in the pressure solve)")
     if fl is not None and fl.open is not None:
         missing.append("open boundaries")
     if fl is not None and fl.periodic is not None:
@@ -121,6 +123,7 @@ class FluidOnRanks(BodyOnRanks):
         self.fluid = fl
         self.nf_global = fl.nf
         self.x_walls = fl.x_all[fl.nf:fl.nf + fl.n_fixed].copy()
+        self.n_boundary = fl.n_fixed + fl.ns  # the boundary rows: walls, then structures
         self.engine = ppe_engine(ppe)
         if self.engine == "petsc":
             from fsi_sph.parallel.ppe_blocks import BlockPressureSolver
@@ -134,9 +137,40 @@ class FluidOnRanks(BodyOnRanks):
         self.x_start = None  # the rows' positions at the start of the last step
         self.wall_own = None
 
+    def boundary_x(self):
+        """The boundary rows' positions: the fixed walls and the structures, which every
+        rank holds whole (the structures as they stand at the start of the step)."""
+        return np.vstack([self.x_walls, *[s.body["x"] for s in self.fluid.structures]])
+
+    def owned_structure_rows(self, values):
+        """Per structure particle, ``values`` (one row each) as the rank that owns the
+        particle computed them (its fluid neighbours are all its own particles or exact
+        ghosts, in the serial order); collective."""
+        mine = self.wall_own[self.x_walls.shape[0]:]
+        out = np.empty_like(values)
+        for index, vals in self.comm.allgather((np.flatnonzero(mine), values[mine])):
+            out[index] = vals
+        return out
+
+    def fluid_power(self, force, velocity):
+        """``sum_i F_i . v_i`` over every rank's own fluid particles, summed as the serial
+        run sums it (the products in global-id order, on rank 0; its value to every rank);
+        collective."""
+        from fsi_sph.coupling.fsi import interface_power
+
+        own = self.is_own
+        parts = self.comm.gather((self.gid[own], force[own], velocity[own]), root=0)
+        power = None
+        if self.comm.rank == 0:
+            gid = np.concatenate([p[0] for p in parts])
+            order = np.argsort(gid, kind="stable")
+            power = interface_power(np.concatenate([p[1] for p in parts])[order],
+                                    np.concatenate([p[2] for p in parts])[order])
+        return self.comm.bcast(power, root=0)
+
     def numbered(self, own):
         """With PETSc, each owned particle's row of the PPE goes with the ghosts."""
-        self.wall_owner = self.strips.owner(self.x_walls)
+        self.wall_owner = self.strips.owner(self.boundary_x())
         if self.engine == "petsc":  # PETSc's rows: a block per rank (ppe_blocks.py)
             own["prow"], self.wall_rows, self.ppe.row_start, self.n_rows = petsc_numbering(
                 self.comm, own["gid"], self.wall_owner)
@@ -155,9 +189,9 @@ class FluidOnRanks(BodyOnRanks):
             self.ppe.rows = numbering(prow, self.wall_rows, self.is_own, self.wall_own,
                                       self.n_rows, self.nf_global)
             return
-        global_row = np.concatenate([self.gid, self.nf_global + np.arange(len(self.x_walls))])
+        global_row = np.concatenate([self.gid, self.nf_global + np.arange(self.n_boundary)])
         owned = np.flatnonzero(np.concatenate([self.is_own, self.wall_own]))
-        self.ppe.rows = RowNumbering(global_row, owned, self.nf_global + len(self.x_walls),
+        self.ppe.rows = RowNumbering(global_row, owned, self.nf_global + self.n_boundary,
                                      self.nf_global)
 
     def spread(self, x):
@@ -168,7 +202,7 @@ class FluidOnRanks(BodyOnRanks):
         own_vals = np.empty(self.n_own)
         own_vals[self.order[self.is_own]] = x[:n_fluid]
         ghost_vals = self.halo.exchange(own_vals)
-        out = np.empty(len(self.order) + len(self.x_walls))
+        out = np.empty(len(self.order) + self.n_boundary)
         out[:len(self.order)] = np.concatenate([own_vals, ghost_vals])[self.order]
         walls = self.comm.allgather((np.flatnonzero(self.wall_own), x[n_fluid:]))
         for index, vals in walls:
@@ -209,6 +243,9 @@ class RankSimulation(Simulation):
             self.split = {name: SoilOnRanks(comm, body, halo_supports * SUPPORT * body.h)
                           for name, body in self.structures.items()}
         self.ranks = next(iter(self.split.values()))
+        if self.coupling is not None:  # the structures: whole on every rank
+            self.coupling.owned_rows = self.ranks.owned_structure_rows
+            self.coupling.fluid_power = self.ranks.fluid_power
         self.writes_output = comm.rank == 0
         self.viewed = 0  # the step whose global state the bodies hold (None: none)
 
@@ -246,10 +283,10 @@ class RankSimulation(Simulation):
             part.distribute()
         self.timings["exchange"] += time.perf_counter() - t0
         self.viewed = None
-        counted = self.particle_steps
+        local = {name: part.obj.body.n for name, part in self.split.items()}
         dt, n_sub = super().step(dt_max, to_end)
-        self.particle_steps = counted + sum(part.n_global * n_sub.get(name, 1)
-                                            for name, part in self.split.items())
+        self.particle_steps += sum((part.n_global - local[name]) * n_sub.get(name, 1)
+                                   for name, part in self.split.items())
         for part in self.split.values():
             part.collect()
         return dt, n_sub

@@ -4,7 +4,8 @@
 [--identical] [--ppe gather|petsc]``: every rank steps its strips
 (:class:`fsi_sph.parallel.ranks.RankSimulation`, halo ``S`` kernel supports); rank 0 also
 runs the serial scene and compares every field of every particle of each split body (the
-dam break's fluid and the walls' pressure; a soil scene's soils) after ``N`` steps. Prints
+dam break's fluid and the walls' pressure; a soil scene's soils) and of every structure
+after ``N`` steps. Prints
 the largest differences; exits 1 when ``--identical`` is asked and a field differs in any
 bit (or, without it, a position by more than 1e-7 of the domain size or the clock by more
 than 1e-7 of itself).
@@ -53,6 +54,9 @@ def main(argv=None):
     for _ in range(args.steps):
         par.step()
     got = fields_of(par, True)
+    for name, body in par.structures.items():  # the structures every rank holds whole
+        if name not in par.split:
+            got.update({f"{name}.{k}": a.copy() for k, a in body.body.arrays.items()})
     if par.fluid is not None:
         got["walls.p"] = par.fluid.walls.body["p"].copy()
     n_own = comm.gather(len(par.ranks.own["gid"]), root=0)

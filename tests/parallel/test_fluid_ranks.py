@@ -1,5 +1,5 @@
-"""Scenes split over MPI ranks (fsi_sph/parallel/ranks.py): the dam break on 2 and 3 ranks
-and the soil column on 2 are the serial run bit for bit (fluid_checks.py under mpiexec), a
+"""Scenes split over MPI ranks (fsi_sph/parallel/ranks.py): the dam break on 2 and 3 ranks,
+the elastic gate and the soil column on 2 are the serial run bit for bit (fluid_checks.py under mpiexec), a
 halo thinner than the step's chain of neighbour operators is not, and scenes that are not
 split yet are refused with their reason."""
 
@@ -46,6 +46,15 @@ def test_dam_break_on_ranks_with_petsc_is_the_serial_run_within_the_solver_toler
     assert code == 0 and "(petsc)" in out, out
 
 
+def test_elastic_gate_on_ranks_is_the_serial_run_bit_for_bit():
+    """The dam break through the elastic gate (dx 2 mm) on 2 ranks over 100 steps: the gate
+    whole on every rank, each of its particles' interface force from the rank that owns it;
+    every field of the fluid, the walls' pressure and the gate equal to the serial run's."""
+    code, out = run_checks(2, "--case", "dam_break_elastic_gate.toml", "--steps", 100,
+                           "--dx", 0.002, "--identical")
+    assert code == 0 and "identical True" in out, out
+
+
 def test_soil_column_on_ranks_is_the_serial_run_bit_for_bit():
     """The soil column (Drucker-Prager, 3 200 particles) on 2 ranks over 300 sub-steps:
     every field of every particle equal to the serial run's in every bit (the neighbour
@@ -65,11 +74,11 @@ def test_a_halo_of_one_support_is_not_enough():
 
 
 @pytest.mark.parametrize("case, dx, reason", [
-    ("dam_break_elastic_gate.toml", 0.002, "structures (gate)"),
-    ("oscillating_plate.toml", 0.004, "structures (plate)"),
+    ("validation/scene_zoo/floating_square.toml", None, "free bodies"),
+    ("cases/oscillating_plate.toml", 0.004, "structures without a fluid (plate)"),
 ])
 def test_scenes_not_split_yet_are_refused(case, dx, reason):
-    sim = Simulation(load_config(ROOT / "cases" / case, [f"case.dx={dx}"]))
+    sim = Simulation(load_config(ROOT / case, [f"case.dx={dx}"] if dx else []))
     with pytest.raises(SimulationError, match="not yet on several MPI ranks") as err:
         check_scene(sim)
     assert reason in str(err.value)
