@@ -1,13 +1,14 @@
 """The pressure Poisson equation of a fluid split over ranks, solved by PETSc over them.
 
-PETSc wants each rank to own one contiguous block of global rows. Here rank r's block is its
-own fluid particles (in global-id order) and then the walls of its strip
-(:func:`block_rows`); a ghost's row is the one its owner gave it (sent with the ghosts). Each
-rank assembles its rows with the serial assembly, renumbers their columns
-(:func:`fsi_sph.parallel.ppe_gather.owned_rows`) and the blocks are solved together by
-:class:`~fsi_sph.parallel.petsc_ppe.PetscPressureSolver`; the ghosts' pressures come back
-from their owners through the halo and the walls' from an all-gather. The answer is the
-serial one within the solver's tolerance, not bit for bit (another preconditioner).
+PETSc wants each rank to own one contiguous block of global rows. Here rank r's block is
+its own fluid particles (in global-id order) and then the boundary rows in its strip (the
+walls, then the structure particles; :func:`block_rows`); a ghost's row is the one its
+owner gave it (sent with the ghosts). Each rank assembles its rows with the serial assembly,
+renumbers their columns (:func:`fsi_sph.parallel.ppe_gather.owned_rows`) and the blocks are
+solved together by :class:`~fsi_sph.parallel.petsc_ppe.PetscPressureSolver`; the ghosts'
+pressures come back from their owners through the halo and the boundary rows' from an
+all-gather. The answer is the serial one within the solver's tolerance, not bit for bit
+(another preconditioner).
 """
 
 from __future__ import annotations
@@ -20,9 +21,10 @@ from fsi_sph.parallel.ppe_gather import RowNumbering, owned_rows
 
 
 def block_rows(comm, n_own, wall_owner):
-    """Where each rank's block starts, and the global row of every wall: ``(start of each
-    rank's block, wall rows)``; a rank's block is ``n_own`` fluid rows, then its walls
-    (``wall_owner``: the rank of each wall, the same on every rank). Collective."""
+    """Where each rank's block starts, and the global row of every boundary row (walls,
+    then structures): ``(start of each rank's block, their rows)``; a rank's block is
+    ``n_own`` fluid rows, then its boundary rows (``wall_owner``: the rank of each boundary
+    row, the same on every rank). Collective."""
     n_fluid = np.array(comm.allgather(int(n_own)), dtype=np.int64)
     n_walls = np.bincount(wall_owner, minlength=comm.size).astype(np.int64)
     start = np.concatenate([[0], np.cumsum(n_fluid + n_walls)])

@@ -20,9 +20,12 @@ neighbour list, every sum over it and the PPE gathered on rank 0 are those of th
 run: with the gathered PPE the fluid on P ranks is the serial run bit for bit
 (tests/parallel/test_fluid_ranks.py); with PETSc's, within its solver's tolerance.
 
-Supported: the fluid with its fixed walls (the walls are small and every rank holds all of
-them; each is owned, as a row of the PPE, by the rank of its strip). Structures, soils, open
-boundaries, periodic images and moving frames are not split yet (:func:`check_scene`).
+Supported: the fluid with its fixed walls and its coupled elastic structures (both small:
+every rank holds all of them, the structures sub-cycled on every rank from the same force;
+each wall or structure particle is owned, as a row of the PPE and for the structure's
+interface force, by the rank of its strip), and Drucker-Prager soils alone
+(:mod:`.split`). Free bodies, a fluid with a soil, open boundaries, periodic images and
+moving frames are not split yet (:func:`check_scene`).
 """
 
 from __future__ import annotations

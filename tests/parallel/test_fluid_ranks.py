@@ -122,3 +122,19 @@ def test_run_on_two_ranks_writes_the_serial_run_file_and_restarts_across_ranks(t
     cut = physical_datasets(tmp_path / "cut" / "run.h5")
     last = max(k for k in one if k.startswith("snapshots/") and k.endswith("fluid/x"))
     assert cut[last].shape == one[last].shape and np.array_equal(cut[last], one[last])
+
+
+def test_one_rank_under_mpiexec_is_the_serial_run(tmp_path):
+    """`mpiexec -n 1 fsi-sph run` is the serial run (no split, no gathered solve): the same
+    run file, wall times aside."""
+    sets = ["--set", "case.dx=0.04", "--set", "case.t_end=0.1", "--no-progress"]
+    case = str(ROOT / "cases" / "dam_break.toml")
+    assert main(["run", case, "--out", str(tmp_path / "plain"), *sets]) == 0
+    done = run_mpi(1, "-m", ["fsi_sph", "run", case, "--out", str(tmp_path / "one"), *sets],
+                   TIMEOUT)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "split over" not in done.stdout + done.stderr
+    plain = physical_datasets(tmp_path / "plain" / "run.h5")
+    one = physical_datasets(tmp_path / "one" / "run.h5")
+    assert sorted(plain) == sorted(one)
+    assert [k for k in plain if not np.array_equal(plain[k], one[k])] == []
