@@ -1,13 +1,14 @@
 """One body's particles split over MPI ranks (the fluid's and a soil's alike;
-fsi_sph/parallel/ranks.py has the design): strips cut for equal work, the owned particles,
-their migration, the ghosts of a deep halo, the rows in global-id order, and the whole body
-gathered for the guard, the probes and the output."""
+fsi_sph/parallel/ranks.py has the design): strips or boxes cut for equal work
+(:mod:`.boxes`), the owned particles, their migration, the ghosts of a deep halo, the rows
+in global-id order, and the whole body gathered for the guard, the probes and the output."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from fsi_sph.parallel.decomposition import Strips, needs_rebalance
+from fsi_sph.parallel.boxes import partition
+from fsi_sph.parallel.decomposition import needs_rebalance
 from fsi_sph.parallel.halo import Halo, migrate
 
 #: the strips are cut anew when the busiest rank has this much more than the mean (issue 32)
@@ -25,7 +26,7 @@ class BodyOnRanks:
         self.width = width
         x = obj.body["x"]
         self.n_global = len(x)
-        self.strips = Strips.balanced(comm, x if comm.rank == 0 else x[:0])
+        self.strips = partition(comm, x if comm.rank == 0 else x[:0], width)
         self.own_from_body()
         self.is_own = self.order = self.gid = self.halo = None
         self.n_own = 0
@@ -46,7 +47,7 @@ class BodyOnRanks:
         ``(own, ghost)``, the exchanged dicts (a subclass numbers rows from them)."""
         comm = self.comm
         if needs_rebalance(comm, len(self.own["gid"]), REBALANCE):
-            self.strips = Strips.balanced(comm, self.own["x"])
+            self.strips = partition(comm, self.own["x"], self.width)
             self.rebalanced += 1
         own = self.numbered(migrate(comm, self.strips, self.own))
         self.halo = Halo.build(comm, self.strips, own["x"], self.width)

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from fsi_sph.parallel import comm as comm_module
+from fsi_sph.parallel.boxes import Boxes, partition
 from fsi_sph.parallel.comm import SerialComm, exchange_arrays, exchange_counts, world
 from fsi_sph.parallel.decomposition import Strips, imbalance, needs_rebalance
 from fsi_sph.parallel.halo import Halo, assign_gids, migrate, row_offsets
@@ -203,3 +204,47 @@ def test_on_two_ranks(name):
 def test_on_three_ranks():
     """All checks on 3 ranks (one run): the thin middle strip gives ghosts on two ranks."""
     run_checks(3, MPI_CHECK_NAMES)
+
+
+# ---------------------------------------------------------------- boxes (recursive bisection)
+
+
+@pytest.mark.parametrize("size", [2, 3, 4, 7])
+def test_boxes_split_the_work_evenly_and_tile_the_plane(monkeypatch, size):
+    """Recursive bisection: every point has one owner, each box holds its share of the work
+    within 1 % + one particle, and a box's distance is 0 inside it and the Euclidean
+    distance outside (checked against points placed at known offsets)."""
+    monkeypatch.setattr(comm_module, "mpi_op", lambda name: name)
+    monkeypatch.setattr(comm_module, "comm_in_place", lambda: None)
+    x = particles(4000, seed=size, box=(2.0, 3.0)) ** [1.0, 2.0]  # denser near y = 0
+    b = Boxes.balanced(AllDataComm(size), x)
+    own = b.owner(x)
+    assert b.size == size and np.all(own >= 0)
+    per_rank = np.bincount(own, minlength=size)
+    assert np.all(np.abs(per_rank - 4000 / size) <= 0.01 * 4000 / size + 1), per_rank
+    r = int(own[0])
+    assert b.distance(x[:1], r)[0] == 0.0
+    corner = np.where(np.isfinite(b.hi[r]), b.hi[r], b.lo[r])  # a finite corner of box r
+    outside = np.where(np.isfinite(b.hi[r]), corner + [0.3, 0.4], corner - [0.3, 0.4])
+    if np.all(np.isfinite(corner)):
+        assert b.distance(outside[None], r)[0] == pytest.approx(0.5)
+
+
+def test_strips_serve_until_they_are_thinner_than_two_halos(monkeypatch):
+    monkeypatch.setattr(comm_module, "mpi_op", lambda name: name)
+    monkeypatch.setattr(comm_module, "comm_in_place", lambda: None)
+    x = particles(4000, box=(1.0, 2.0))
+    assert isinstance(partition(AllDataComm(2), x, 0.4), Strips)  # no inner strip
+    assert isinstance(partition(AllDataComm(4), x, 0.1), Strips)  # inner strips 0.5 wide
+    assert isinstance(partition(AllDataComm(4), x, 0.3), Boxes)  # 0.5 < 2 x 0.3
+
+
+def test_box_owner_and_distance():
+    b = Boxes(np.array([[-np.inf, -np.inf], [1.0, -np.inf]]),
+              np.array([[1.0, np.inf], [np.inf, np.inf]]))
+    x = np.array([[0.5, 3.0], [1.0, 0.0], [1.3, -7.0]])
+    assert b.owner(x).tolist() == [0, 1, 1]  # half-open: x = 1 belongs to box 1
+    assert b.distance(x, 0).tolist() == pytest.approx([0.0, 0.0, 0.3])
+    box = Boxes(np.array([[0.0, 0.0]]), np.array([[1.0, 1.0]]))
+    assert box.distance(np.array([[1.3, 1.4], [0.5, 0.5]]), 0).tolist() == pytest.approx(
+        [0.5, 0.0])
