@@ -8,7 +8,8 @@ set-up and JIT compilation excluded), fluid particle-steps per second, the step 
 the ghost exchange (migration, re-cut and ghosts: ``exchange``), the PPE (assembly, the
 gather of the rows to rank 0, the solve there, the broadcast back: ``ppe``) and the rest
 (``compute``), each the slowest rank's; the bytes and messages a rank sends per step (ghost
-exchange; PPE rows); and the speed-up and parallel efficiency against 1 rank x 1 thread.
+exchange; PPE rows); the largest peak resident memory of one rank's process; and the
+speed-up and parallel efficiency against 1 rank x 1 thread.
 
 Usage::
 
@@ -29,6 +30,7 @@ os.environ.setdefault("MKL_NUM_THREADS", "1")
 import argparse  # noqa: E402
 import json  # noqa: E402
 import platform  # noqa: E402
+import resource  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
@@ -78,6 +80,8 @@ def one(dx, threads, warm, steps):
                 r.ppe.sent_bytes - ppe_bytes0]
         sent = [max(v) for v in zip(*comm.allgather(mine), strict=True)]
     walls = comm.allgather(wall) if comm.size > 1 else [wall]
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024  # this process's peak
+    rss = max(comm.allgather(rss)) if comm.size > 1 else rss
     if comm.rank != 0:
         return None
     wall = max(walls)
@@ -86,7 +90,7 @@ def one(dx, threads, warm, steps):
             "s_per_step": wall / steps, "particle_steps_per_s": nf * steps / wall,
             "ms_per_step": {k: 1e3 * v / steps for k, v in slowest.items()},
             "halo_bytes_per_step": sent[0] / steps, "halo_messages_per_step": sent[1] / steps,
-            "ppe_bytes_per_step": sent[2] / steps}
+            "ppe_bytes_per_step": sent[2] / steps, "peak_rss_per_rank_mb": rss / 1e6}
 
 
 def spawn(dx, ranks, threads, warm, steps):
@@ -111,7 +115,7 @@ def table(sizes, ranks, warm, steps):
     rows = []
     print(f"{'size':>6} {'ranks x thr':>11} {'s/step':>8} {'p-steps/s':>10} "
           f"{'compute':>8} {'exchange':>8} {'ppe':>8} {'halo MB':>8} {'msgs':>5} "
-          f"{'ppe MB':>7} {'speed-up':>8} {'eff.':>5}")
+          f"{'ppe MB':>7} {'RSS/rank MB':>11} {'speed-up':>8} {'eff.':>5}")
     for name in sizes:
         base = None
         for r, t in ((1, 1), (1, 2), (ranks, 1)):
@@ -126,6 +130,7 @@ def table(sizes, ranks, warm, steps):
                   f"{ms['exchange']:8.0f} {ms['ppe']:8.0f} "
                   f"{rec['halo_bytes_per_step'] / 1e6:8.2f} "
                   f"{rec['halo_messages_per_step']:5.0f} {rec['ppe_bytes_per_step'] / 1e6:7.1f} "
+                  f"{rec['peak_rss_per_rank_mb']:11.0f} "
                   f"{rec['speedup']:8.2f} {rec['efficiency']:5.2f}", flush=True)
             rows.append(rec)
     return rows
