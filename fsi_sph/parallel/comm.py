@@ -205,3 +205,13 @@ def ranks_on_this_node(comm):
         return node.size
     finally:
         node.Free()
+
+
+def gather_rows(comm, index, values, n):
+    """The ``n`` rows of which every rank holds some (``values`` at rows ``index``; each row
+    on exactly one rank), on every rank: an all-gather; collective."""
+    values = np.asarray(values)
+    out = np.empty((n, *values.shape[1:]), values.dtype)
+    for idx, vals in comm.allgather((np.asarray(index), values)):
+        out[idx] = vals
+    return out

@@ -36,9 +36,10 @@ import time
 import numpy as np
 
 from fsi_sph.errors import SimulationError
+from fsi_sph.parallel.comm import gather_rows, global_reduce
 from fsi_sph.parallel.ppe_blocks import numbering, petsc_numbering
 from fsi_sph.parallel.ppe_gather import GatheredPressureSolver, RowNumbering
-from fsi_sph.parallel.split import BodyOnRanks, SoilOnRanks
+from fsi_sph.parallel.split import BodyOnRanks, SoilOnRanks, replace_rows
 from fsi_sph.simulation import Simulation
 from fsi_sph.sph.kernels import SUPPORT
 
@@ -108,10 +109,7 @@ def set_fluid_rows(fl, arrays):
     names: a rank's own particles and its ghosts); the stacked arrays are laid out anew
     with the walls' rows carried over (:meth:`FluidParticles.restack`) and the parts' work
     arrays follow the new count."""
-    b = fl.body
-    b.select(np.zeros(b.n, dtype=bool), len(arrays["x"]))
-    for k in b.arrays:
-        b[k][:] = arrays[k]
+    replace_rows(fl.body, arrays)
     fl.restack(np.zeros(0))
     fl.resized()
 
@@ -150,10 +148,7 @@ class FluidOnRanks(BodyOnRanks):
         particle computed them (its fluid neighbours are all its own particles or exact
         ghosts, in the serial order); collective."""
         mine = self.wall_own[self.x_walls.shape[0]:]
-        out = np.empty_like(values)
-        for index, vals in self.comm.allgather((np.flatnonzero(mine), values[mine])):
-            out[index] = vals
-        return out
+        return gather_rows(self.comm, np.flatnonzero(mine), values[mine], len(values))
 
     def fluid_power(self, force, velocity):
         """``sum_i F_i . v_i`` over every rank's own fluid particles, summed as the serial
@@ -205,12 +200,9 @@ class FluidOnRanks(BodyOnRanks):
         own_vals = np.empty(self.n_own)
         own_vals[self.order[self.is_own]] = x[:n_fluid]
         ghost_vals = self.halo.exchange(own_vals)
-        out = np.empty(len(self.order) + self.n_boundary)
-        out[:len(self.order)] = np.concatenate([own_vals, ghost_vals])[self.order]
-        walls = self.comm.allgather((np.flatnonzero(self.wall_own), x[n_fluid:]))
-        for index, vals in walls:
-            out[len(self.order) + index] = vals
-        return out
+        walls = gather_rows(self.comm, np.flatnonzero(self.wall_own), x[n_fluid:],
+                            self.n_boundary)
+        return np.concatenate([np.concatenate([own_vals, ghost_vals])[self.order], walls])
 
     def collect(self):
         super().collect()
@@ -273,9 +265,7 @@ class RankSimulation(Simulation):
         """The stable step over all ranks (each rank's limit over its own particles and
         ghosts: the minimum of the ranks' limits is the serial run's)."""
         limits, dt = super().step_limits()
-        from mpi4py import MPI
-
-        return limits, self.comm.allreduce(dt, op=MPI.MIN)
+        return limits, float(global_reduce(self.comm, np.array([dt]), "min")[0])
 
     def step(self, dt_max=math.inf, to_end=False):
         """One step of every rank's particles (:meth:`Simulation.step` on the rank's own

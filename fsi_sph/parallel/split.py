@@ -8,11 +8,19 @@ from __future__ import annotations
 import numpy as np
 
 from fsi_sph.parallel.boxes import partition
+from fsi_sph.parallel.comm import gather_rows, global_reduce
 from fsi_sph.parallel.decomposition import needs_rebalance
 from fsi_sph.parallel.halo import Halo, migrate
 
 #: the strips are cut anew when the busiest rank has this much more than the mean (issue 32)
 REBALANCE = 0.10
+
+
+def replace_rows(body, arrays):
+    """``body`` holds the rows ``arrays`` from now on (every field of it, same names)."""
+    body.select(np.zeros(body.n, dtype=bool), len(arrays["x"]))
+    for k in body.arrays:
+        body[k][:] = arrays[k]
 
 
 class BodyOnRanks:
@@ -82,11 +90,7 @@ class BodyOnRanks:
 
     def gathered(self, name):
         """Field ``name`` of every particle in global-id order, on every rank."""
-        parts = self.comm.allgather((self.own["gid"], self.own[name]))
-        gid = np.concatenate([p[0] for p in parts])
-        out = np.empty((self.n_global, *self.own[name].shape[1:]), self.own[name].dtype)
-        out[gid] = np.concatenate([p[1] for p in parts])
-        return out
+        return gather_rows(self.comm, self.own["gid"], self.own[name], self.n_global)
 
     def global_view(self):
         """Every particle's fields in the body, in global-id order (the serial run's
@@ -106,13 +110,8 @@ class SoilOnRanks(BodyOnRanks):
         """The serial run's cell grid for the neighbour search: the lowest corner over the
         ranks (the order of the neighbours within a row, and so every sum over them,
         follows the grid; collective)."""
-        from fsi_sph.parallel.comm import global_reduce
-
         return global_reduce(self.comm, np.asarray(corner, dtype=np.float64), "min")
 
     def relayout(self, arrays):
-        b = self.obj.body
-        b.select(np.zeros(b.n, dtype=bool), len(arrays["x"]))
-        for k in b.arrays:
-            b[k][:] = arrays[k]
+        replace_rows(self.obj.body, arrays)
         self.obj.resized()
