@@ -16,6 +16,15 @@ serial rows are printed.
 Usage::
 
     python validation/benchmark_petsc_ppe.py [--sizes 163k,1M] [--ranks 2] [--threads 2]
+    python validation/benchmark_petsc_ppe.py --step 300 [--count 8] [--sizes 163k]
+
+With ``--step N`` it compares iterations on the PPEs of a flow under way instead: the
+serial run to step ``N + count`` records the PPEs of its last ``--count`` steps with the
+iterations its own solver took (hierarchy kept and refreshed, as in a run); PETSc then
+solves the same sequence, each from the serial run's initial guess, with its kept
+preconditioner and the same rebuild policy, on 1 rank and on ``--ranks``. Printed: the
+iterations per step, their means, and PETSc's mean over the serial one (the issue's
+target: at most 1.5).
 
 One PETSc solve on the ranks of an MPI job: ``mpiexec -n P python
 validation/benchmark_petsc_ppe.py --worker PPE.npz`` (used by the table's runs).
@@ -68,6 +77,116 @@ def first_step_ppe(dx):
     finally:
         PressureSolver.solve = original
     return (*captured[0], config.fluid.ppe)
+
+
+def run_ppes(dx, first, count):
+    """The serial run's PPEs of steps ``first .. first + count - 1`` (counted from 0) as
+    ``(A, b, x0)`` and the iterations its own solver took on each; and the PPE section."""
+    from fsi_sph.config import load_config
+    from fsi_sph.fluid.ppe import PressureSolver
+    from fsi_sph.simulation import Simulation
+
+    config = load_config(CASE, [f"case.dx={dx}"])
+    sim = Simulation(config)
+    ppes, iterations, step = [], [], [0]
+    original = PressureSolver.solve
+
+    def spy(self, A, b, x0, nf=None, low_rank=None):
+        p, stats = original(self, A, b, x0, nf, low_rank)
+        if step[0] >= first:
+            ppes.append((A.copy(), b.copy(), np.array(x0, copy=True)))
+            iterations.append(stats.iterations)
+        return p, stats
+
+    PressureSolver.solve = spy
+    try:
+        for step[0] in range(first + count):
+            sim.step()
+    finally:
+        PressureSolver.solve = original
+    return ppes, iterations, config.fluid.ppe
+
+
+def petsc_sequence(comm, ppes, cfg):
+    """PETSc's iterations on each PPE of the sequence (this rank's equal contiguous block),
+    the preconditioner kept under the serial rebuild policy; slowest rank's total times."""
+    from fsi_sph.parallel.petsc_ppe import PetscPressureSolver
+
+    solver = PetscPressureSolver(cfg, comm=comm)
+    iterations, setup, solve = [], 0.0, 0.0
+    for A, b, x0 in ppes:
+        n = len(b)
+        cuts = np.linspace(0, n, comm.size + 1).astype(int)
+        lo, hi = cuts[comm.rank], cuts[comm.rank + 1]
+        indptr, cols, vals = block(A, lo, hi)
+        _, stats = solver.solve(indptr, cols, vals, b[lo:hi], x0[lo:hi], lo, n)
+        iterations.append(stats.iterations)
+        setup += stats.setup_time
+        solve += stats.solve_time
+    solver.destroy()
+    return iterations, comm.allreduce(setup, op=_max()), comm.allreduce(solve, op=_max())
+
+
+def save_sequence(path, ppes, cfg):
+    arrays = {}
+    for i, (A, b, x0) in enumerate(ppes):
+        arrays.update({f"indptr{i}": A.indptr, f"indices{i}": A.indices, f"data{i}": A.data,
+                       f"b{i}": b, f"x0{i}": x0})
+    np.savez(path, count=len(ppes), cfg=json.dumps(cfg.model_dump()), **arrays)
+
+
+def load_sequence(path):
+    import scipy.sparse as sp
+
+    from fsi_sph.config.fluid import PPESection
+
+    d = np.load(path)
+    ppes = []
+    for i in range(int(d["count"])):
+        n = len(d[f"b{i}"])
+        A = sp.csr_array((d[f"data{i}"], d[f"indices{i}"], d[f"indptr{i}"]), shape=(n, n))
+        ppes.append((A, d[f"b{i}"], d[f"x0{i}"]))
+    return ppes, PPESection(**json.loads(str(d["cfg"])))
+
+
+def sequence_worker(path):
+    """``--worker-sequence SEQ.npz`` under mpiexec: one JSON line on rank 0."""
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD
+    its, setup, solve = petsc_sequence(comm, *load_sequence(path))
+    if comm.rank == 0:
+        print(json.dumps({"iterations": its, "setup_s": setup, "solve_s": solve}), flush=True)
+
+
+def one_sequence(label, first, count, ranks):
+    """The iterations table of one size on the run's PPEs of steps ``first ..``."""
+    from fsi_sph.parallel import petsc_ppe
+
+    t0 = time.perf_counter()
+    ppes, serial, cfg = run_ppes(SIZES[label], first, count)
+    print(f"{label}: {ppes[0][0].shape[0]} unknowns at step {first}; the serial run to step "
+          f"{first + count} took {time.perf_counter() - t0:.0f} s", flush=True)
+    rows = [("pyamg serial (in the run)", serial, float("nan"), float("nan"))]
+    if petsc_ppe.available():
+        from petsc4py import PETSc
+
+        its, setup, solve = petsc_sequence(PETSc.COMM_SELF.tompi4py(), ppes, cfg)
+        rows.append((f"{petsc_ppe.engine()}, 1 rank", its, setup, solve))
+        if ranks > 1:
+            with tempfile.TemporaryDirectory() as tmp:
+                path = Path(tmp) / "sequence.npz"
+                save_sequence(path, ppes, cfg)
+                out = run_worker(["--worker-sequence", str(path)], ranks)
+            if out is not None:
+                rows.append((f"{petsc_ppe.engine()}, {ranks} ranks", out["iterations"],
+                             out["setup_s"], out["solve_s"]))
+    mean0 = np.mean(serial)
+    print(f"{'size':>5} {'solver':<44} {'mean its':>8} {'/ serial':>8} {'setup s':>8} "
+          f"{'solve s':>8}  iterations per step")
+    for name, its, setup, solve in rows:
+        print(f"{label:>5} {name:<44} {np.mean(its):>8.2f} {np.mean(its) / mean0:>8.2f} "
+              f"{setup:>8.3f} {solve:>8.3f}  {' '.join(str(i) for i in its)}")
 
 
 def row(name, stats, reuse):
@@ -139,22 +258,27 @@ def worker(path):
         print(json.dumps(row(f"{engine()}, {comm.size} ranks", first, again)), flush=True)
 
 
-def mpi_row(A, b, cfg, ranks, tmp):
+def run_worker(args, ranks):
+    """This script with ``args`` on ``ranks`` ranks under mpiexec: its last JSON line."""
     from fsi_sph.parallel.launch import launcher_env, mpiexec_command
 
     mpiexec, env = mpiexec_command(), launcher_env()
     if mpiexec is None:
         return None
-    path = Path(tmp) / "ppe.npz"
-    np.savez(path, indptr=A.indptr, indices=A.indices, data=A.data, b=b,
-             cfg=json.dumps(cfg.model_dump()))
-    cmd = [*mpiexec, "-n", str(ranks), sys.executable, __file__, "--worker", str(path)]
+    cmd = [*mpiexec, "-n", str(ranks), sys.executable, __file__, *args]
     done = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, env=env,
                           timeout=3600)
     if done.returncode != 0:
         print(done.stdout, done.stderr, file=sys.stderr)
         return None
     return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def mpi_row(A, b, cfg, ranks, tmp):
+    path = Path(tmp) / "ppe.npz"
+    np.savez(path, indptr=A.indptr, indices=A.indices, data=A.data, b=b,
+             cfg=json.dumps(cfg.model_dump()))
+    return run_worker(["--worker", str(path)], ranks)
 
 
 def one_size(label, ranks, threads):
@@ -198,13 +322,22 @@ def main(argv=None):
     ap.add_argument("--sizes", default="163k", help=f"comma-separated, of {list(SIZES)}")
     ap.add_argument("--ranks", type=int, default=2, help="ranks of the mpiexec row (1: none)")
     ap.add_argument("--threads", type=int, default=2, help="numba threads of the serial row")
+    ap.add_argument("--step", type=int, default=None,
+                    help="compare iterations on the run's PPEs from this step on")
+    ap.add_argument("--count", type=int, default=8, help="PPEs of the --step sequence")
     ap.add_argument("--worker", help=argparse.SUPPRESS)
+    ap.add_argument("--worker-sequence", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.worker:
         return worker(args.worker)
+    if args.worker_sequence:
+        return sequence_worker(args.worker_sequence)
     load0 = os.getloadavg()
     for label in args.sizes.split(","):
-        print_table(label, one_size(label, args.ranks, args.threads))
+        if args.step is not None:
+            one_sequence(label, args.step, args.count, args.ranks)
+        else:
+            print_table(label, one_size(label, args.ranks, args.threads))
     print(f"{os.cpu_count()} cores, load average {load0} -> {os.getloadavg()}")
 
 

@@ -31,6 +31,12 @@ from fsi_sph.fluid.ppe import KeptPreconditioner, PPEStats
 
 #: options prefix of the PPE's KSP and PC
 PREFIX = "fsi_ppe_"
+#: BoomerAMG's smoother on every level, down and up: one forward Gauss-Seidel sweep within a
+#: rank (Jacobi between ranks). PETSc's default (the symmetric sweep, twice the work) took the
+#: same iterations and a third more time: dam break at 163 k, steps 300-307 on 2 ranks, 9.9
+#: iterations a step either way, Krylov 0.88-0.93 s against 1.31-1.41 s over the 8 solves
+#: (``validation/benchmark_petsc_ppe.py --step 300``; docs/parallel.md).
+RELAX = "SOR/Jacobi"
 
 
 def _petsc():
@@ -188,14 +194,16 @@ class PetscPressureSolver:
         self.ksp = ksp
 
     def _set_pc(self, pc):
-        """BoomerAMG (strength threshold ``cfg.strength_theta``) or GAMG with the
-        non-symmetric graph; defaults only where the options database has no value."""
+        """BoomerAMG (strength threshold ``cfg.strength_theta``, smoother :data:`RELAX`) or
+        GAMG with the non-symmetric graph; defaults only where the options database has no
+        value."""
         PETSc = self.PETSc
         opts = PETSc.Options()
         if self.pc_type == "hypre":
             pc.setType(PETSc.PC.Type.HYPRE)
             pc.setHYPREType("boomeramg")
-            defaults = {"pc_hypre_boomeramg_strong_threshold": self.cfg.strength_theta}
+            defaults = {"pc_hypre_boomeramg_strong_threshold": self.cfg.strength_theta,
+                        "pc_hypre_boomeramg_relax_type_all": RELAX}
         else:
             pc.setType(PETSc.PC.Type.GAMG)
             defaults = {"pc_gamg_sym_graph": "true", "mg_levels_ksp_type": "richardson",
