@@ -5,12 +5,40 @@ free bodies' rigid-body rows of the solve."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from fsi_sph.fluid import _kernels as K
-from fsi_sph.sph.interface import pair_pressure_forces, rigid_mode_terms
+from fsi_sph.sph.interface import add_pair_terms, pair_pressure_forces, rigid_pair_terms
 
 CARRIED_FULL = 0.9  # wall_pressure = "mirror": fluid gradient share taken as a full column
+
+
+@dataclass
+class RigidTerms:
+    """The free bodies' rigid-body terms ``U G`` of the PPE (:meth:`BoundaryRows.rigid_terms`):
+    ``U`` (rows x 3 per body) and ``G`` as its interface pairs, in the order of the serial
+    sums: pair ``k`` joins the structure row ``pair_row[k]`` and the fluid row
+    ``pair_fluid[k]`` of body ``pair_body[k]`` with coefficients ``pair[k]`` (x force, y force,
+    torque) at both rows' columns."""
+
+    U: np.ndarray
+    pair_row: np.ndarray
+    pair_fluid: np.ndarray
+    pair_body: np.ndarray
+    pair: np.ndarray
+
+    def G(self, n=None, columns=None):
+        """``G`` dense (3 per body x ``n`` columns, default all rows); ``columns`` renumbers
+        the rows to other columns (a rank's rows to the global ones)."""
+        n = self.U.shape[0] if n is None else n
+        col_i, col_f = self.pair_row, self.pair_fluid
+        if columns is not None:
+            col_i, col_f = columns[col_i], columns[col_f]
+        G = np.zeros((self.U.shape[1], n))
+        add_pair_terms(self.pair_body, col_i, col_f, self.pair, G)
+        return G
 
 
 class BoundaryRows:
@@ -21,6 +49,9 @@ class BoundaryRows:
         self.ps = ps
         self.rows = rows
         self.rigid = None  # free bodies whose rigid-body motion the PPE solves for
+        # on several ranks: the structure rows whose fluid neighbours this rank holds in
+        # full (fsi_sph/parallel/ranks.py); only they add to the rigid-body terms
+        self.owned_structures = None
         self.g_star = None  # with them: the boundary rows' acceleration in div u*
         self._gb_cache = None  # wall_body_force of the step (mirror walls)
 
@@ -80,16 +111,17 @@ class BoundaryRows:
             ps.g_b[ps.n_walls:] = 0.0
 
     def rigid_terms(self):
-        """``(U, G)`` of the free bodies' rigid-body rows, added to the PPE matrix as ``U G``
-        (scaled like the other boundary rows by ``diag_ref``). A structure row ``w`` of body
-        ``b`` is Adami's extrapolation with the body's rigid acceleration under the fluid's
-        generalised force ``G_b p`` (x, y force; torque about the centre of mass)::
+        """:class:`RigidTerms` of the free bodies' rigid-body rows, added to the PPE matrix as
+        ``U G`` (scaled like the other boundary rows by ``diag_ref``). A structure row ``w``
+        of body ``b`` is Adami's extrapolation with the body's rigid acceleration under the
+        fluid's generalised force ``G_b p`` (x, y force; torque about the centre of mass)::
 
             p_w - sum_f w_wf p_f + rho rbar_w . (F_b / M_b + (T_b / I_b) z x r_w) = 0
 
-        (:func:`fsi_sph.sph.interface.rigid_mode_terms`; ``g - a_w`` without the fluid's
+        (:func:`fsi_sph.sph.interface.rigid_pair_terms`; ``g - a_w`` without the fluid's
         share is 0: the body's weight gives it ``g``, its internal forces neither net force
-        nor torque, and its deformation is not seen)."""
+        nor torque, and its deformation is not seen). On several ranks only the structure
+        rows in ``owned_structures`` have pairs (and rows of ``U``)."""
         ps = self.ps
         _, body_of, mass, inertia, centre = self.rigid
         nb0 = ps.nf + ps.n_walls
@@ -98,12 +130,13 @@ class BoundaryRows:
         k0 = ps.wf_start[ps.n_walls]
         sf_start = np.ascontiguousarray(ps.wf_start[ps.n_walls:] - k0)
         sf_j = np.ascontiguousarray(ps.wf_j[k0:])
+        if self.owned_structures is not None:
+            sf_start, sf_j = rows_kept(sf_start, sf_j, self.owned_structures)
         rbar = np.zeros((ns, 2))
-        G = np.zeros((3 * len(mass), n))
-        rigid_mode_terms(ps.x_all[nb0:], ps.vol_all[nb0:], ps.x_all[:ps.nf],
-                         ps.vol_all[:ps.nf], sf_start, sf_j, ps.h, ps.kernel,
-                         ps.grad_scale, self.rows.interface_weights(), body_of, centre, nb0, rbar,
-                         G)
+        pair = np.empty((len(sf_j), 3))
+        rigid_pair_terms(ps.x_all[nb0:], ps.vol_all[nb0:], ps.x_all[:ps.nf], ps.vol_all[:ps.nf],
+                         sf_start, sf_j, ps.h, ps.kernel, ps.grad_scale,
+                         self.rows.interface_weights(), body_of, centre, rbar, pair)
         lever = ps.x_all[nb0:] - centre[body_of]
         c = ps.diag_ref * ps.rho
         U = np.zeros((n, 3 * len(mass)))
@@ -112,7 +145,8 @@ class BoundaryRows:
         U[rows, 3 * body_of + 1] = c * rbar[:, 1] / mass[body_of]
         U[rows, 3 * body_of + 2] = c * (rbar[:, 1] * lever[:, 0]
                                         - rbar[:, 0] * lever[:, 1]) / inertia[body_of]
-        return U, G
+        pair_row = nb0 + np.repeat(np.arange(ns), np.diff(sf_start))
+        return RigidTerms(U, pair_row, sf_j.astype(np.int64), body_of[pair_row - nb0], pair)
 
     def wall_body_force(self):
         """The body force ``g - a_b`` of the boundary rows in Adami's extrapolation
@@ -257,3 +291,11 @@ class BoundaryRows:
         pw = mean[:, 0] + ps.rho * np.einsum("ij,ij->i", gb, rbar)
         ps.p_all[nf:nf + nwall] = np.where(np.isfinite(pw), pw, 0.0)
         ps.sync()  # (the periodic wall images)
+
+
+def rows_kept(start, j, keep):
+    """The CSR lists ``(start, j)`` with the rows where ``keep`` is false emptied."""
+    lengths = np.diff(start) * keep
+    new_start = np.zeros(len(start), dtype=start.dtype)
+    np.cumsum(lengths, out=new_start[1:])
+    return new_start, np.ascontiguousarray(j[np.repeat(keep, np.diff(start))])

@@ -189,7 +189,8 @@ class PressureSolver(KeptPreconditioner):
     def solve(self, A, b, x0, nf=None, low_rank=None):
         """Solve ``A p = b`` from the initial guess ``x0`` (the last pressure); returns
         ``(p, PPEStats)``. ``nf``: the number of fluid rows (the rest are boundary rows), used
-        to split the smoother's blocks. ``low_rank = (U, G)``: solve ``(A + U G) p = b``
+        to split the smoother's blocks. ``low_rank``: the free bodies'
+        :class:`~fsi_sph.fluid.boundary.RigidTerms` ``U, G``: solve ``(A + U G) p = b``
         instead (the AMG hierarchy is still that of ``A``). Raises ``RuntimeError`` if the
         iteration limit is reached."""
         stats = PPEStats(n_unknowns=A.shape[0])
@@ -202,7 +203,7 @@ class PressureSolver(KeptPreconditioner):
         elif self.cfg.refresh_finest:
             # the kept hierarchy's coarse levels with this step's matrix on the finest level
             self.vcycle.refresh_finest(Ac, amg.two_blocks(A, nf) if nf else None)
-        op = Ac if low_rank is None else amg.LowRank(Ac, *low_rank)
+        op = Ac if low_rank is None else amg.LowRank(Ac, low_rank.U, low_rank.G())
         p = self._krylov(op, b, x0, bnorm, stats)
         if stats.residual > self.cfg.rtol and not stats.rebuilt:
             # a stale hierarchy that no longer preconditions well: rebuild and solve again

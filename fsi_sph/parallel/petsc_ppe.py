@@ -114,6 +114,7 @@ class PetscPressureSolver:
         self.vecs = None  # (x, b, r) in the matrix's layout
         self.pattern = None  # (row_start, indptr, gcols) of self.mat on this rank
         self.n_global = None
+        self.op = None  # the operator: the matrix, or with free bodies A + U G (a shell)
         self.reuse = KeptPreconditioner(cfg)  # the serial solver's reuse policy
 
     # -- collective helpers -------------------------------------------------------------
@@ -175,6 +176,24 @@ class PetscPressureSolver:
         self.pattern = (row_start, ptr.copy(), cols.copy())
         self.n_global = n_global
 
+    def _low_rank_operator(self, U, G):
+        """``A + U G`` as PETSc's low-rank-correction matrix (``MATLRC``: ``A + U V^T`` with
+        ``V = G^T``, both dense with this rank's rows; ``V^T x`` is summed over the ranks)."""
+        PETSc = self.PETSc
+        n_local, m = U.shape
+        sizes = ((n_local, self.n_global), (PETSc.DECIDE, m))
+        self.dense = [np.asfortranarray(U, dtype=PETSc.ScalarType),
+                      np.asfortranarray(G.T, dtype=PETSc.ScalarType)]  # (PETSc's storage)
+        u, v = (PETSc.Mat().createDense(sizes, array=a.ravel(order="F"), comm=self.comm)
+                for a in self.dense)
+        for mat in (u, v):
+            mat.assemble()
+        op = PETSc.Mat().createLRC(self.mat, u, None, v)
+        op.setUp()
+        u.destroy()
+        v.destroy()
+        return op
+
     # -- Krylov method and preconditioner ---------------------------------------------------
 
     def _new_ksp(self):
@@ -219,7 +238,7 @@ class PetscPressureSolver:
         """Operators of this step; the preconditioner rebuilt (timed) or kept."""
         pc = self.ksp.getPC()
         pc.setReusePreconditioner(not rebuild)
-        self.ksp.setOperators(self.mat, self.mat)
+        self.ksp.setOperators(self.op, self.mat)
         t0 = time.perf_counter()
         self.ksp.setUp()
         if rebuild:
@@ -233,25 +252,30 @@ class PetscPressureSolver:
         self.ksp.solve(b, x)
         stats.iterations += self.ksp.getIterationNumber()
         r = self.vecs[2]
-        self.mat.mult(x, r)
+        self.op.mult(x, r)
         r.aypx(-1.0, b)  # r = b - A x
         stats.residual = r.norm() / bnorm
         stats.solve_time += time.perf_counter() - t0
 
     # -- the solve ---------------------------------------------------------------------------
 
-    def solve(self, indptr, gcols, data, b, x0, row_start, n_global):
+    def solve(self, indptr, gcols, data, b, x0, row_start, n_global, low_rank=None):
         """Solve the global PPE; this rank passes its rows ``[row_start, row_start +
         n_local)`` as CSR (``indptr`` of length ``n_local + 1``, GLOBAL column indices
         ``gcols``, values ``data``), its part of the right-hand side ``b`` and of the
         initial guess ``x0``. Returns ``(x_local, PPEStats)`` (``n_unknowns``: the global
-        row count). Raises ``RuntimeError`` (on every rank) when the relative residual is
-        above ``cfg.rtol`` after ``cfg.maxiter`` iterations."""
+        row count). ``low_rank = (U, G)``, this rank's rows of ``U`` and columns of ``G``:
+        solve ``(A + U G) x = b`` instead, the preconditioner built on ``A``. Raises
+        ``RuntimeError`` (on every rank) when the relative residual is above ``cfg.rtol``
+        after ``cfg.maxiter`` iterations."""
         stats = PPEStats(n_unknowns=int(n_global))
         rebuild = self._needs_rebuild(n_global)  # (before _matrix updates n_global)
         if self._matrix(indptr, gcols, data, row_start, n_global) or self.ksp is None:
             self._new_ksp()
             rebuild = True
+        if self.op is not None and self.op is not self.mat:
+            self.op.destroy()
+        self.op = self.mat if low_rank is None else self._low_rank_operator(*low_rank)
         x, bv, _ = self.vecs
         bv.setArray(np.asarray(b, dtype=self.PETSc.ScalarType))
         x.setArray(np.asarray(x0, dtype=self.PETSc.ScalarType))
@@ -269,8 +293,10 @@ class PetscPressureSolver:
 
     def destroy(self):
         """Free the PETSc objects (collective)."""
+        if self.op is not None and self.op is not self.mat:
+            self.op.destroy()
         for obj in (self.ksp, self.mat, *(self.vecs or ())):
             if obj is not None:
                 obj.destroy()
-        self.ksp = self.mat = self.vecs = self.pattern = None
+        self.ksp = self.mat = self.vecs = self.pattern = self.op = None
         self.n_global = None

@@ -17,6 +17,7 @@ import time
 
 import numpy as np
 
+from fsi_sph.parallel.low_rank import block_terms
 from fsi_sph.parallel.ppe_gather import RowNumbering, owned_rows
 
 
@@ -59,16 +60,18 @@ class BlockPressureSolver:
         self.petsc.reuse.age = self.petsc.cfg.rebuild_every
 
     def solve(self, A, b, x0, nf=None, low_rank=None):
-        """Solve the global PPE; returns ``(p, PPEStats)`` with ``p`` for every stacked row
-        of this rank."""
-        if low_rank is not None:
-            raise NotImplementedError("rigid bodies' low-rank terms on several ranks")
+        """Solve the global PPE (with the free bodies' terms ``low_rank``, a
+        :class:`~fsi_sph.fluid.boundary.RigidTerms`); returns ``(p, PPEStats)`` with ``p``
+        for every stacked row of this rank."""
         t0 = time.perf_counter()
         _, lengths, cols, data, b_own, x0_own = owned_rows(A, b, x0, self.rows)
         indptr = np.zeros(len(lengths) + 1, dtype=np.int64)
         np.cumsum(lengths, out=indptr[1:])
+        if low_rank is not None:
+            low_rank = block_terms(self.comm, low_rank, self.rows, self.row_start,
+                                   len(lengths))
         x, stats = self.petsc.solve(indptr, cols, data, b_own, x0_own, self.row_start,
-                                    self.rows.n_global)
+                                    self.rows.n_global, low_rank)
         p = self.ranks.spread(x)
         stats.assemble_time = 0.0
         stats.solve_time = time.perf_counter() - t0 - stats.setup_time

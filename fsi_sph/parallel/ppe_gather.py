@@ -23,6 +23,7 @@ import scipy.sparse as sp
 
 from fsi_sph.fluid.ppe import PressureSolver
 from fsi_sph.parallel.comm import exchange_arrays, ranks_on_this_node, wait_quietly
+from fsi_sph.parallel.low_rank import gathered_terms, local_parts
 
 
 @dataclass
@@ -59,12 +60,13 @@ class GatheredPressureSolver:
 
     def solve(self, A, b, x0, nf=None, low_rank=None):
         """Solve the global PPE of which ``A, b`` (this rank's stacked rows) hold this
-        rank's part; returns ``(p, PPEStats)`` with ``p`` for every stacked row."""
-        if low_rank is not None:
-            raise NotImplementedError("rigid bodies' low-rank terms on several ranks")
+        rank's part, and ``low_rank`` the free bodies' terms over them (:mod:`.low_rank`);
+        returns ``(p, PPEStats)`` with ``p`` for every stacked row."""
         rows = self.rows
         t0 = time.perf_counter()
         part = owned_rows(A, b, x0, rows)
+        if low_rank is not None:
+            part = (*part, *local_parts(low_rank, rows))
         self.sent_bytes += sum(a.nbytes for a in part)
         parts = list(zip(*[to_root(self.comm, a) for a in part], strict=True))
         p = np.empty(rows.n_global)
@@ -90,7 +92,8 @@ class GatheredPressureSolver:
         numba.set_num_threads(min(numba.config.NUMBA_NUM_THREADS, threads * self.node_ranks))
         try:
             A, b, x0 = global_system(parts, rows.n_global)
-            return self.serial.solve(A, b, x0, rows.nf_global)
+            low_rank = gathered_terms(parts, rows.n_global) if len(parts[0]) > 6 else None
+            return self.serial.solve(A, b, x0, rows.nf_global, low_rank)
         finally:
             numba.set_num_threads(threads)
 

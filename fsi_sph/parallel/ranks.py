@@ -20,12 +20,13 @@ neighbour list, every sum over it and the PPE gathered on rank 0 are those of th
 run: with the gathered PPE the fluid on P ranks is the serial run bit for bit
 (tests/parallel/test_fluid_ranks.py); with PETSc's, within its solver's tolerance.
 
-Supported: the fluid with its fixed walls and its coupled elastic structures (both small:
-every rank holds all of them, the structures sub-cycled on every rank from the same force;
-each wall or structure particle is owned, as a row of the PPE and for the structure's
-interface force, by the rank of its strip), and Drucker-Prager soils alone
-(:mod:`.split`). Free bodies, a fluid with a soil, open boundaries, periodic images and
-moving frames are not split yet (:func:`check_scene`).
+Supported: the fluid with its fixed walls, its coupled elastic structures and its free
+bodies, in a fixed or a shaken tank (walls and structures are small: every rank holds all
+of them, the structures sub-cycled on every rank from the same force; each wall or
+structure particle is owned, as a row of the PPE, for the structure's interface force and
+for the free bodies' rigid-body terms (:mod:`.low_rank`), by the rank of its strip), and
+Drucker-Prager soils alone (:mod:`.split`). A fluid with a soil, open boundaries, periodic
+images and the incremental projection are not split yet (:func:`check_scene`).
 """
 
 from __future__ import annotations
@@ -78,8 +79,8 @@ def engine_text(choice="auto"):
 
 def check_scene(sim):
     """Raise :class:`SimulationError` naming what a scene holds that is not split over
-    ranks yet (the run works on one rank). Split: a fluid with its fixed walls, or
-    Drucker-Prager soils alone."""
+    ranks yet (the run works on one rank). Split: a fluid with its fixed walls, coupled
+    structures and free bodies (fixed or shaken tank), or Drucker-Prager soils alone."""
     fl = sim.fluid
     missing = []
     solids = [n for n, b in sim.structures.items() if b.body.kind != "soil"]
@@ -89,14 +90,10 @@ def check_scene(sim):
         missing.append("structures without a fluid (" + ", ".join(solids) + ")")
     if fl is not None and len(solids) < len(sim.structures):
         missing.append("a fluid and a soil together")
-    if sim.coupling is not None and sim.coupling.scheme == "rigid":
-        missing.append("free bodies (their rigid-body terms in the pressure solve)")
     if fl is not None and fl.open is not None:
         missing.append("open boundaries")
     if fl is not None and fl.periodic is not None:
         missing.append("periodic fluid")
-    if sim.frame is not None:
-        missing.append("a moving frame")
     if fl is not None and fl.pressure.incremental:
         missing.append("fluid.projection = \"incremental\"")
     if missing:
@@ -182,6 +179,7 @@ class FluidOnRanks(BodyOnRanks):
         own, ghost = super().distribute()
         self.x_start = self.fluid.body["x"].copy()
         self.wall_own = self.wall_owner == self.comm.rank
+        self.fluid.pressure.boundary.owned_structures = self.wall_own[self.x_walls.shape[0]:]
         if self.engine == "petsc":
             prow = np.concatenate([own["prow"], ghost["prow"]])[self.order]
             self.ppe.rows = numbering(prow, self.wall_rows, self.is_own, self.wall_own,

@@ -42,25 +42,25 @@ def pair_pressure_forces(xd, pd, vold, xs, ps, vols, nbr_start, nbr_j, h, kind, 
         out_f[i, 1] = -scale * vold[i] * f1
 
 
-@njit(cache=True)
-def rigid_mode_terms(x_s, vol_s, x_f, vol_f, sf_start, sf_j, h, kind, scale, M, body_of, xc,
-                     s_off, out_rbar, out_g):
-    """Terms of the PPE's rigid-body rows (``coupling.structure_acceleration = "rigid"``).
+@njit(cache=True, parallel=True)
+def rigid_pair_terms(x_s, vol_s, x_f, vol_f, sf_start, sf_j, h, kind, scale, M, body_of, xc,
+                     out_rbar, out_pair):
+    """Terms of the PPE's rigid-body rows (``coupling.structure_acceleration = "rigid"``),
+    per structure particle ``i`` and per interface pair ``k`` of its fluid neighbours.
 
     ``out_rbar[i] = sum_f w_if (x_i - x_f)`` (Shepard weights over structure particle ``i``'s
-    fluid neighbours; 0 without any), the lever of Adami's extrapolation. ``out_g[3 b + d]``:
-    the coefficients of the pressures in body ``b``'s generalised interface force ``d`` (x
-    force, y force, torque about ``xc[b]``), summed pair by pair from [F 46-47]::
+    fluid neighbours; 0 without any), the lever of Adami's extrapolation. ``out_pair[k]``:
+    the pair's coefficients ``(G_x, G_y, r_i x G)`` of the pressures ``p_i + p_f`` in the
+    generalised interface force of ``i``'s body ``b`` (x force, y force, torque about
+    ``xc[b]``), from [F 46-47]::
 
         F_b = sum_{i in b} sum_f G_if (p_i + p_f),  G_if = -c V_i V_f M_f grad_i W_if,
         T_b = sum_{i in b} sum_f (r_i x G_if) (p_i + p_f),  r_i = x_i - xc[b]
 
-    (column ``s_off + i`` for structure particle ``i``, ``f`` for fluid particle ``f``;
-    ``M_f`` the pair weights of :func:`pair_pressure_forces`, the identity but on the
-    waterline rows, so that the solve sees the force the body then receives). A
-    fluid particle beside two structure particles collects from both, so this loop scatters
-    and runs serially (one pass over the interface pairs)."""
-    for i in range(x_s.shape[0]):
+    (``M_f`` the pair weights of :func:`pair_pressure_forces`, the identity but on the
+    waterline rows, so that the solve sees the force the body then receives). A coincident
+    pair's coefficients are 0. :func:`add_pair_terms` sums them into the body's rows."""
+    for i in prange(x_s.shape[0]):
         b = body_of[i]
         rx = x_s[i, 0] - xc[b, 0]
         ry = x_s[i, 1] - xc[b, 1]
@@ -73,19 +73,34 @@ def rigid_mode_terms(x_s, vol_s, x_f, vol_f, sf_start, sf_j, h, kind, scale, M, 
             sw += wt
             r0 += wt * d0
             r1 += wt * d1
+            out_pair[k, 0] = 0.0
+            out_pair[k, 1] = 0.0
+            out_pair[k, 2] = 0.0
             if r < 1e-12 * h:
                 continue
             c = -scale * vol_s[i] * vol_f[j] * kernel_dw(kind, r, h) / r
             gx = c * (M[j, 0, 0] * d0 + M[j, 0, 1] * d1)
             gy = c * (M[j, 1, 0] * d0 + M[j, 1, 1] * d1)
-            gt = rx * gy - ry * gx
-            for col in (s_off + i, j):
-                out_g[3 * b, col] += gx
-                out_g[3 * b + 1, col] += gy
-                out_g[3 * b + 2, col] += gt
+            out_pair[k, 0] = gx
+            out_pair[k, 1] = gy
+            out_pair[k, 2] = rx * gy - ry * gx
         if sw > 0.0:
             out_rbar[i, 0] = r0 / sw
             out_rbar[i, 1] = r1 / sw
         else:
             out_rbar[i, 0] = 0.0
             out_rbar[i, 1] = 0.0
+
+
+@njit(cache=True)
+def add_pair_terms(pair_body, col_i, col_f, pair, out_g):
+    """``out_g[3 b + d, col] += pair[k, d]`` for each pair ``k`` (of body ``pair_body[k]``),
+    in the pairs' order, at both of its columns: the structure row's ``col_i[k]`` and the
+    fluid row's ``col_f[k]`` (the rigid-body rows of :func:`rigid_pair_terms`). A fluid row
+    beside two structure particles collects from both, so this loop scatters and runs
+    serially; the order of the pairs is the order of the sums."""
+    for k in range(len(pair_body)):
+        b = pair_body[k]
+        for col in (col_i[k], col_f[k]):
+            for d in range(3):
+                out_g[3 * b + d, col] += pair[k, d]

@@ -47,7 +47,8 @@ def main(argv=None):
     ap.add_argument("--ppe", default="gather", help="auto, petsc or gather")
     args = ap.parse_args(argv)
     comm = MPI.COMM_WORLD
-    case, sets = CASES / args.case, [f"case.dx={args.dx}"]
+    case = Path(args.case) if Path(args.case).is_file() else CASES / args.case
+    sets = [f"case.dx={args.dx}"]
     kw = {"ppe": args.ppe} if args.halo is None else {"halo_supports": args.halo,
                                                       "ppe": args.ppe}
     par = RankSimulation(load_config(case, sets), comm, **kw)
