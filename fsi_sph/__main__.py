@@ -417,7 +417,7 @@ def main(argv=None):
     try:
         return commands[args.command](args)
     except (ConfigError, UsageError) as e:
-        print(f"fsi-sph: error: {e}", file=sys.stderr)
+        _say_once(f"fsi-sph: error: {e}")
         return 2
     except MemoryError:
         print("fsi-sph: out of memory: the scene is too large for this machine (see `fsi-sph "
@@ -433,9 +433,18 @@ def main(argv=None):
     except Exception as e:  # a failed run: say what happened, no traceback unless asked
 
         if isinstance(e, SimulationError):
-            print(f"fsi-sph: run failed: {e}", file=sys.stderr)
+            _say_once(f"fsi-sph: run failed: {e}")
             return 1
         raise
+
+
+def _say_once(message):
+    """``message`` to stderr from rank 0 only when several MPI ranks run the command: the
+    input errors and the run's failures are found by every rank alike."""
+    from fsi_sph.parallel.comm import launched_rank
+
+    if launched_rank() == 0:
+        print(message, file=sys.stderr)
 
 
 if __name__ == "__main__":

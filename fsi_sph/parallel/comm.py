@@ -72,6 +72,15 @@ def launched_size():
     return 1 if any(var in os.environ for var in LAUNCHER_RANK_VARS) else 0
 
 
+def launched_rank():
+    """This process's rank as the MPI launcher announced it in the environment (0 if none),
+    known without starting MPI."""
+    for var in LAUNCHER_RANK_VARS:
+        if os.environ.get(var, "").isdigit():
+            return int(os.environ[var])
+    return 0
+
+
 def world():
     """MPI ``COMM_WORLD`` under an MPI launcher (or when mpi4py.MPI is already imported),
     else a ``SerialComm``. Raises ImportError when launched on several ranks without mpi4py:

@@ -36,6 +36,16 @@ def test_world_is_serial_without_launcher(monkeypatch):
         assert isinstance(c, SerialComm) and (c.rank, c.size) == (0, 1)
 
 
+def test_launched_rank_from_the_environment(monkeypatch):
+    for var in comm_module.LAUNCHER_RANK_VARS:
+        monkeypatch.delenv(var, raising=False)
+    assert comm_module.launched_rank() == 0
+    monkeypatch.setenv("OMPI_COMM_WORLD_RANK", "3")
+    assert comm_module.launched_rank() == 3
+    monkeypatch.setenv("PMI_RANK", "1")  # MPICH's comes first
+    assert comm_module.launched_rank() == 1
+
+
 def test_world_refuses_several_ranks_without_mpi4py(monkeypatch):
     monkeypatch.setenv("PMI_SIZE", "2")
     monkeypatch.setitem(sys.modules, "mpi4py", None)

@@ -170,3 +170,14 @@ def test_one_rank_under_mpiexec_is_the_serial_run(tmp_path):
     one = physical_datasets(tmp_path / "one" / "run.h5")
     assert sorted(plain) == sorted(one)
     assert [k for k in plain if not np.array_equal(plain[k], one[k])] == []
+
+
+def test_errors_on_several_ranks_are_printed_once(tmp_path):
+    """A scene that is not split yet, and a case file that does not exist, on 2 ranks: exit
+    code 2 and the reason printed once (by rank 0; every rank finds it alike)."""
+    for case, reason in [(ROOT / "cases" / "channel_poiseuille.toml", "open boundaries"),
+                         (tmp_path / "missing.toml", "file not found")]:
+        done = run_mpi(2, "-m", ["fsi_sph", "run", str(case), "--out", str(tmp_path / "o"),
+                                 "--no-progress"], TIMEOUT)
+        assert done.returncode == 2, done.stdout + done.stderr
+        assert done.stderr.count("fsi-sph: error:") == 1 and reason in done.stderr, done.stderr
