@@ -222,7 +222,7 @@ class Simulation:
 
         def sample():
             self.gather_view()
-            for p in self.probes:
+            for p in self.probes if self.writes_output else ():
                 rows[p.name][1].append([self.t, *p.sample()])
 
         def flush(snapshot, status="running", restart_point=None):

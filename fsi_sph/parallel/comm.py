@@ -224,3 +224,15 @@ def gather_rows(comm, index, values, n):
     for idx, vals in comm.allgather((np.asarray(index), values)):
         out[idx] = vals
     return out
+
+
+def gather_rows_to_root(comm, index, values, n):
+    """:func:`gather_rows` to rank 0 alone (the other ranks get None); collective."""
+    values = np.asarray(values)
+    parts = comm.gather((np.asarray(index), values), root=0)
+    if parts is None:
+        return None
+    out = np.empty((n, *values.shape[1:]), values.dtype)
+    for idx, vals in parts:
+        out[idx] = vals
+    return out

@@ -207,14 +207,18 @@ class FluidOnRanks(BodyOnRanks):
         self.own["x_start"] = self.x_start[self.is_own]
 
     def global_view(self):
-        """Every fluid particle in the fluid body in global-id order, with the step's
+        """Every fluid particle in rank 0's fluid body in global-id order, with the step's
         neighbour lists (built at the step's start positions, as the serial run's); the
-        guard, the probes and the output read the fluid there as in a serial run."""
+        guard, the probes and the output read the fluid there as in a serial run. The other
+        ranks' bodies keep their rows. Collective."""
         fl = self.fluid
-        whole = {k: self.gathered(k) for k in fl.body.arrays}
+        whole = {k: self.gathered(k, root_only=True) for k in fl.body.arrays}
+        x_start = self.gathered("x_start", root_only=True) if self.x_start is not None else None
+        if self.comm.rank != 0:
+            return
         set_fluid_rows(fl, whole)
-        if self.x_start is not None:
-            fl.body["x"][:] = self.gathered("x_start")
+        if x_start is not None:
+            fl.body["x"][:] = x_start
         fl.update_neighbors()
         fl.body["x"][:] = whole["x"]
         fl.sync()
@@ -249,6 +253,22 @@ class RankSimulation(Simulation):
             for part in self.split.values():
                 part.global_view()
             self.viewed = self.n_steps
+
+    def check(self):
+        """The blow-up guard on rank 0's whole view (the serial run's check and message),
+        its verdict to every rank; rank 0 keeps the last good state (it writes the run
+        file). Collective."""
+        self.gather_view()
+        failure = None
+        if self.comm.rank == 0:
+            try:
+                self.guard.check(self.t, self.n_steps, self.bodies())
+            except SimulationError as e:
+                failure = str(e)
+        failure = self.comm.bcast(failure, root=0)
+        if failure is not None:
+            raise SimulationError(failure)
+        self.last_good = (self.clock(), self.state()) if self.comm.rank == 0 else None
 
     def load_state(self, clock, state):
         """A restart: the whole state is loaded as in a serial run, then each rank takes

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from fsi_sph.parallel.boxes import partition
-from fsi_sph.parallel.comm import gather_rows, global_reduce
+from fsi_sph.parallel.comm import gather_rows, gather_rows_to_root, global_reduce
 from fsi_sph.parallel.decomposition import needs_rebalance
 from fsi_sph.parallel.halo import Halo, migrate
 
@@ -88,14 +88,19 @@ class BodyOnRanks:
         self.own = {k: a[self.is_own].copy() for k, a in b.arrays.items()}
         self.own["gid"] = self.gid[self.is_own]
 
-    def gathered(self, name):
-        """Field ``name`` of every particle in global-id order, on every rank."""
-        return gather_rows(self.comm, self.own["gid"], self.own[name], self.n_global)
+    def gathered(self, name, root_only=False):
+        """Field ``name`` of every particle in global-id order, on every rank (``root_only``:
+        on rank 0, None on the others)."""
+        gather = gather_rows_to_root if root_only else gather_rows
+        return gather(self.comm, self.own["gid"], self.own[name], self.n_global)
 
     def global_view(self):
-        """Every particle's fields in the body, in global-id order (the serial run's
-        layout); collective."""
-        self.relayout({k: self.gathered(k) for k in self.obj.body.arrays})
+        """Every particle's fields in rank 0's body, in global-id order (the serial run's
+        layout), for the guard, the probes and the output, which rank 0 alone runs; the
+        other ranks' bodies keep their rows. Collective."""
+        whole = {k: self.gathered(k, root_only=True) for k in self.obj.body.arrays}
+        if self.comm.rank == 0:
+            self.relayout(whole)
 
 
 class SoilOnRanks(BodyOnRanks):

@@ -181,3 +181,26 @@ def test_errors_on_several_ranks_are_printed_once(tmp_path):
                                  "--no-progress"], TIMEOUT)
         assert done.returncode == 2, done.stdout + done.stderr
         assert done.stderr.count("fsi-sph: error:") == 1 and reason in done.stderr, done.stderr
+
+
+def test_failed_run_on_ranks_says_so_once_and_keeps_the_serial_file(tmp_path, capsys):
+    """The dam break with a guard domain that the collapsing column leaves (a particle past
+    x = 1.1 m): on 2 ranks the run fails as the serial run does, at the same step with the
+    same message, printed once; rank 0's file says why and holds what the serial run's
+    holds (the snapshots and the last good state, wall times aside)."""
+    sets = ["--set", "case.dx=0.04", "--set", "case.t_end=0.6", "--no-progress", "--ppe",
+            "gather", "--set", "guard.domain={origin=[-0.5,-0.5],size=[1.6,3.0]}"]
+    case = str(ROOT / "cases" / "dam_break.toml")
+    assert main(["run", case, "--out", str(tmp_path / "one"), *sets]) == 1
+    serial = [ln for ln in capsys.readouterr().err.splitlines() if "run failed" in ln]
+    done = run_mpi(2, "-m", ["fsi_sph", "run", case, "--out", str(tmp_path / "two"), *sets],
+                   TIMEOUT)
+    assert done.returncode == 1, done.stdout + done.stderr
+    failed = [ln for ln in done.stderr.splitlines() if "run failed" in ln]
+    assert len(serial) == 1 and failed == serial and "left the domain" in serial[0]
+    one = physical_datasets(tmp_path / "one" / "run.h5")
+    two = physical_datasets(tmp_path / "two" / "run.h5")
+    assert sorted(one) == sorted(two)
+    assert [k for k in one if not np.array_equal(one[k], two[k])] == []
+    with h5py.File(tmp_path / "two" / "run.h5", "r") as f:
+        assert f.attrs["status"].startswith("failed")
