@@ -96,6 +96,8 @@ def check_scene(sim):
         missing.append("periodic fluid")
     if fl is not None and fl.pressure.incremental:
         missing.append("fluid.projection = \"incremental\"")
+    if fl is not None and fl.cfg.viscous_step == "implicit":  # (a global solve, not gathered)
+        missing.append("fluid.viscous_step = \"implicit\"")
     if missing:
         raise SimulationError("not yet on several MPI ranks: " + "; ".join(missing)
                               + " (run it on one rank)")

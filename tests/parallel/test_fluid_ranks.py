@@ -105,12 +105,14 @@ def test_a_halo_of_one_support_is_not_enough():
     assert code == 1 and "identical False" in out, out
 
 
-@pytest.mark.parametrize("case, dx, reason", [
-    ("cases/channel_poiseuille.toml", None, "open boundaries"),
-    ("cases/oscillating_plate.toml", 0.004, "structures without a fluid (plate)"),
+@pytest.mark.parametrize("case, sets, reason", [
+    ("cases/channel_poiseuille.toml", [], "open boundaries"),
+    ("cases/oscillating_plate.toml", ["case.dx=0.004"], "structures without a fluid (plate)"),
+    ("cases/dam_break.toml", ["case.dx=0.05", "fluid.viscous_step=implicit"],
+     'fluid.viscous_step = "implicit"'),
 ])
-def test_scenes_not_split_yet_are_refused(case, dx, reason):
-    sim = Simulation(load_config(ROOT / case, [f"case.dx={dx}"] if dx else []))
+def test_scenes_not_split_yet_are_refused(case, sets, reason):
+    sim = Simulation(load_config(ROOT / case, sets))
     with pytest.raises(SimulationError, match="not yet on several MPI ranks") as err:
         check_scene(sim)
     assert reason in str(err.value)
