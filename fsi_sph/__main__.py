@@ -257,15 +257,15 @@ def _print_scene(cfg, est, sim):
 
 def _ranks_text(sim):
     """What `mpiexec -n P fsi-sph run` does with this scene (fsi_sph/parallel/ranks.py)."""
-    from fsi_sph.parallel.ranks import HALO_SUPPORTS, check_scene, engine_text
+    from fsi_sph.parallel.ranks import check_scene, engine_text, halo_supports
 
     try:
         check_scene(sim)
     except SimulationError as e:
         return str(e)
     if sim.fluid is None:
-        return (f"the soils split into strips, a halo of {HALO_SUPPORTS} kernel supports")
-    return (f"the fluid split into strips, a halo of {HALO_SUPPORTS} kernel supports, "
+        return (f"the soils split into strips, a halo of {halo_supports(sim)} kernel supports")
+    return (f"the fluid split into strips, a halo of {halo_supports(sim)} kernel supports, "
             f"{engine_text()}")
 
 

@@ -89,14 +89,7 @@ from fsi_sph.fluid.viscous_operators import (
     transpose_stress_divergence,
     wall_target,
 )
-from fsi_sph.fluid.viscous_solvers import (
-    CoupledMatrix,
-    MorrisPreconditioner,
-    ViscousStats,
-    amplifies,
-    solve,
-    solve_coupled,
-)
+from fsi_sph.fluid.viscous_solvers import MorrisPreconditioner, ViscousStats, solve_implicit
 
 
 class ViscousStep:
@@ -112,6 +105,7 @@ class ViscousStep:
         self.law = law  # the viscosity law (rheology.py)
         self.stats = ViscousStats()
         self.morris_pre = None  # the implicit stress step's AMG hierarchy (solve_step)
+        self.implicit_solve = solve_implicit  # (replaced on several ranks)
 
     def at_snapshot(self):
         """A restart point: the kept AMG hierarchy is built anew at the next solve."""
@@ -224,25 +218,21 @@ class ViscousStep:
     def solve_step(self, A, rhs, dt, col_of, mirror, stress):
         """The implicit viscous solve: per component with the Morris matrix ``A``; with the
         ``stress`` operator one coupled system for ``U = [u_x; u_y]``,
-        ``(blockdiag(A, A) - dt B) U = rhs + dt e`` (:func:`transpose_operator`)."""
+        ``(blockdiag(A, A) - dt B) U = rhs + dt e`` (:func:`transpose_operator`), solved by
+        ``self.implicit_solve`` (:func:`solve_implicit`; on several ranks gathered to rank
+        0: fsi_sph/parallel/ranks.py)."""
         ps = self.ps
-        if not stress:
-            return solve(A, rhs, ps.v_old, ps.cfg.viscous_rtol)
-        nf = ps.nf
-        B, e = transpose_operator(ps.x_all, ps.vol_all, ps.nu_all[:nf], ps.L,
-                                  ps.ff_start, ps.ff_j, nf, ps.h, ps.kernel, col_of,
-                                  ps.v_all, mirror)
-        b = rhs + dt * e
-        x0 = ps.v_old.T.reshape(-1)
-        if self.morris_pre is None:
-            self.morris_pre = MorrisPreconditioner()
-        u, stats = solve_coupled(A, CoupledMatrix(A, B, dt), b.T.reshape(-1), x0,
-                                 ps.cfg.viscous_rtol, self.morris_pre)
-        u = u.reshape(2, nf).T
-        if amplifies(u, b):
-            u, stats = solve(A, rhs, ps.v_old, ps.cfg.viscous_rtol)
-            stats.fallback = True
-        return u, stats
+        coupled = None
+        if stress:
+            nf = ps.nf
+            B, e = transpose_operator(ps.x_all, ps.vol_all, ps.nu_all[:nf], ps.L,
+                                      ps.ff_start, ps.ff_j, nf, ps.h, ps.kernel, col_of,
+                                      ps.v_all, mirror)
+            coupled = (B, rhs + dt * e, dt)
+            if self.morris_pre is None:
+                self.morris_pre = MorrisPreconditioner()
+        return self.implicit_solve(A, rhs, ps.v_old, ps.cfg.viscous_rtol, coupled,
+                                   self.morris_pre)
 
     def wall_mirror(self, col_of):
         """No-slip velocity of the boundary particles for the viscous term (Adami et al. 2012):

@@ -61,6 +61,25 @@ def solve(A, rhs, x0, rtol):
     return out, stats
 
 
+def solve_implicit(A, rhs, x0, rtol, coupled=None, pre=None):
+    """The implicit viscous step's solve: ``A u = rhs`` per component (:func:`solve`), or
+    with ``coupled = (B, b, dt)`` the stress operator's ``(blockdiag(A, A) - dt B) U = b``
+    (:func:`solve_coupled`, ``U = [u_x; u_y]``, hierarchy kept in ``pre``), replaced by the
+    Morris step where it amplifies (:func:`amplifies`). ``rhs, b, x0``: (n, 2). Returns
+    ``(u (n, 2), ViscousStats)``."""
+    if coupled is None:
+        return solve(A, rhs, x0, rtol)
+    B, b, dt = coupled
+    n = A.shape[0]
+    u, stats = solve_coupled(A, CoupledMatrix(A, B, dt), b.T.reshape(-1), x0.T.reshape(-1),
+                             rtol, pre)
+    u = u.reshape(2, n).T
+    if amplifies(u, b):
+        u, stats = solve(A, rhs, x0, rtol)
+        stats.fallback = True
+    return u, stats
+
+
 class CoupledMatrix:
     """``blockdiag(A, A) - dt B`` of the stress operator's step as products (``A`` the Morris
     matrix, ``B`` the transposed term, :class:`TransposeTerm` or a sparse matrix);

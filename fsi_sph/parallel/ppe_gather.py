@@ -136,7 +136,7 @@ def global_system(parts, n_global):
               out=indptr[1:])
     indices = np.empty(indptr[-1], dtype=np.int32)
     data = np.empty(indptr[-1])
-    _place_rows(np.concatenate([p[2] for p in parts]), np.concatenate([p[3] for p in parts]),
+    place_rows(np.concatenate([p[2] for p in parts]), np.concatenate([p[3] for p in parts]),
                 src, g_rows, indptr, indices, data)
     A = sp.csr_array((data, indices, indptr.astype(np.int32)), shape=(n_global, n_global))
     A.has_sorted_indices = True
@@ -159,7 +159,7 @@ def _take_rows(indptr, indices, data, rows, global_row, starts, out_cols, out_da
 
 
 @numba.njit(cache=True, parallel=True)
-def _place_rows(cols, vals, src, g_rows, indptr, out_indices, out_data):
+def place_rows(cols, vals, src, g_rows, indptr, out_indices, out_data):
     """Packed rows (``src`` their starts) copied to their global rows ``g_rows``."""
     for k in numba.prange(len(g_rows)):
         a, at = src[k], indptr[g_rows[k]]

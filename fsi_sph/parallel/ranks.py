@@ -21,12 +21,13 @@ run: with the gathered PPE the fluid on P ranks is the serial run bit for bit
 (tests/parallel/test_fluid_ranks.py); with PETSc's, within its solver's tolerance.
 
 Supported: the fluid with its fixed walls, its coupled elastic structures and its free
-bodies, in a fixed or a shaken tank (walls and structures are small: every rank holds all
-of them, the structures sub-cycled on every rank from the same force; each wall or
-structure particle is owned, as a row of the PPE, for the structure's interface force and
-for the free bodies' rigid-body terms (:mod:`.low_rank`), by the rank of its strip), and
-Drucker-Prager soils alone (:mod:`.split`). A fluid with a soil, open boundaries, periodic
-images and the incremental projection are not split yet (:func:`check_scene`).
+bodies, in a fixed or a shaken tank, Newtonian or granular (walls and structures are small:
+every rank holds all of them, the structures sub-cycled on every rank from the same force;
+each wall or structure particle is owned, as a row of the PPE, for the structure's
+interface force and for the free bodies' rigid-body terms (:mod:`.low_rank`), by the rank
+of its strip; the implicit viscous step is gathered to rank 0, :mod:`.viscous_gather`), and
+Drucker-Prager soils alone (:mod:`.split`). A fluid with a soil, open boundaries and
+periodic images are not split yet (:func:`check_scene`).
 """
 
 from __future__ import annotations
@@ -41,12 +42,24 @@ from fsi_sph.parallel.comm import gather_rows, global_reduce
 from fsi_sph.parallel.ppe_blocks import numbering, petsc_numbering
 from fsi_sph.parallel.ppe_gather import GatheredPressureSolver, RowNumbering
 from fsi_sph.parallel.split import BodyOnRanks, SoilOnRanks, replace_rows
+from fsi_sph.parallel.viscous_gather import GatheredViscousSolve
 from fsi_sph.simulation import Simulation
 from fsi_sph.sph.kernels import SUPPORT
 
 #: halo depth in kernel supports (docs/parallel.md: the smallest depth at which the dam
 #: break on 2 ranks repeats the serial run bit for bit, plus a margin)
 HALO_SUPPORTS = 4
+#: the same for a fluid with a viscosity law or the implicit viscous step, whose step reads
+#: neighbours' results more times over (the granular collapse on 2 ranks: 5 supports
+#: repeat the serial run bit for bit over 100 steps, 4 do not)
+HALO_SUPPORTS_VISCOUS = 6
+
+
+def halo_supports(sim):
+    """The halo depth the scene's fluid needs (:data:`HALO_SUPPORTS` or, with a viscosity
+    law or the implicit viscous step, :data:`HALO_SUPPORTS_VISCOUS`)."""
+    fl = sim.fluid
+    return HALO_SUPPORTS_VISCOUS if fl is not None and fl.viscous is not None else HALO_SUPPORTS
 #: how the PPE of a split fluid is solved: gathered to rank 0 (ppe_gather.py) or by PETSc
 #: over the ranks (ppe_blocks.py, petsc_ppe.py)
 ENGINES = {"gather": "the PPE gathered to rank 0 and solved there by pyamg",
@@ -79,8 +92,9 @@ def engine_text(choice="auto"):
 
 def check_scene(sim):
     """Raise :class:`SimulationError` naming what a scene holds that is not split over
-    ranks yet (the run works on one rank). Split: a fluid with its fixed walls, coupled
-    structures and free bodies (fixed or shaken tank), or Drucker-Prager soils alone."""
+    ranks yet (the run works on one rank). Split: a fluid (Newtonian or granular) with its
+    fixed walls, coupled structures and free bodies (fixed or shaken tank), or
+    Drucker-Prager soils alone."""
     fl = sim.fluid
     missing = []
     solids = [n for n, b in sim.structures.items() if b.body.kind != "soil"]
@@ -94,10 +108,6 @@ def check_scene(sim):
         missing.append("open boundaries")
     if fl is not None and fl.periodic is not None:
         missing.append("periodic fluid")
-    if fl is not None and fl.pressure.incremental:
-        missing.append("fluid.projection = \"incremental\"")
-    if fl is not None and fl.cfg.viscous_step == "implicit":  # (a global solve, not gathered)
-        missing.append("fluid.viscous_step = \"implicit\"")
     if missing:
         raise SimulationError("not yet on several MPI ranks: " + "; ".join(missing)
                               + " (run it on one rank)")
@@ -134,6 +144,8 @@ class FluidOnRanks(BodyOnRanks):
         self.ppe_engine = ENGINES[self.engine]
         fl.pressure.ppe = self.ppe
         fl.pressure.increments.ppe = self.ppe
+        if fl.viscous is not None:  # the implicit viscous step's solve, gathered to rank 0
+            fl.viscous.implicit_solve = GatheredViscousSolve(comm, self)
         self.x_start = None  # the rows' positions at the start of the last step
         self.wall_own = None
 
@@ -176,9 +188,27 @@ class FluidOnRanks(BodyOnRanks):
     def relayout(self, arrays):
         set_fluid_rows(self.fluid, arrays)
 
+    def own_from_body(self):
+        """:meth:`BodyOnRanks.own_from_body`, with the incremental projection's last
+        increment (the next solve's warm start) carried by each particle."""
+        super().own_from_body()
+        if self.obj.pressure.incremental:
+            phi = self.obj.pressure.increments.phi_all
+            self.own["phi"] = phi[:self.n_global][self.own["gid"]]
+
+    def carried_increment(self, own, ghost):
+        """The increment ``phi`` of the new rows (carried with the particles), the boundary
+        rows' (the same on every rank) kept."""
+        inc = self.fluid.pressure.increments
+        walls = inc.phi_all[len(inc.phi_all) - self.n_boundary:]
+        fluid = np.concatenate([own["phi"], ghost["phi"]])[self.order]
+        inc.phi_all = np.concatenate([fluid, walls])
+
     def distribute(self):
         """:meth:`BodyOnRanks.distribute`, then the PPE's global numbering of the rows."""
         own, ghost = super().distribute()
+        if "phi" in own:
+            self.carried_increment(own, ghost)
         self.x_start = self.fluid.body["x"].copy()
         self.wall_own = self.wall_owner == self.comm.rank
         self.fluid.pressure.boundary.owned_structures = self.wall_own[self.x_walls.shape[0]:]
@@ -207,6 +237,22 @@ class FluidOnRanks(BodyOnRanks):
     def collect(self):
         super().collect()
         self.own["x_start"] = self.x_start[self.is_own]
+        if self.fluid.pressure.incremental:
+            self.own["phi"] = self.fluid.pressure.increments.phi_all[:len(self.is_own)][
+                self.is_own]
+            self.exact_wall_pressure()
+
+    def exact_wall_pressure(self):
+        """The fixed walls' pressure from the ranks that own them, on every rank. With the
+        incremental projection a wall's ``p^{n+1} = p^n + phi`` takes ``p^n`` extrapolated
+        anew by each rank from the fluid it holds, which is right only for the walls beside
+        its own particles (the ones its own rows read); the output reads them all."""
+        fl = self.fluid
+        nf, n_fixed = len(self.is_own), self.x_walls.shape[0]
+        mine = np.flatnonzero(self.wall_own[:n_fixed])
+        p = gather_rows(self.comm, mine, fl.p_all[nf + mine], n_fixed)
+        fl.p_all[nf:nf + n_fixed] = p
+        fl.walls.body["p"][:] = p
 
     def global_view(self):
         """Every fluid particle in rank 0's fluid body in global-id order, with the step's
@@ -216,8 +262,13 @@ class FluidOnRanks(BodyOnRanks):
         fl = self.fluid
         whole = {k: self.gathered(k, root_only=True) for k in fl.body.arrays}
         x_start = self.gathered("x_start", root_only=True) if self.x_start is not None else None
+        phi = self.gathered("phi", root_only=True) if "phi" in self.own else None
         if self.comm.rank != 0:
             return
+        if phi is not None:  # (the restart state holds the serial layout)
+            inc = fl.pressure.increments
+            inc.phi_all = np.concatenate([phi, inc.phi_all[len(inc.phi_all)
+                                                            - self.n_boundary:]])
         set_fluid_rows(fl, whole)
         if x_start is not None:
             fl.body["x"][:] = x_start
@@ -232,14 +283,15 @@ class RankSimulation(Simulation):
     the others (``self.split``: one :class:`BodyOnRanks` per split body; ``self.ranks``:
     the fluid's, or the first soil's)."""
 
-    def __init__(self, cfg, comm, halo_supports=HALO_SUPPORTS, ppe="auto"):
+    def __init__(self, cfg, comm, halo=None, ppe="auto"):
         super().__init__(cfg)
         check_scene(self)
         self.comm = comm
+        halo = halo_supports(self) if halo is None else halo
         if self.fluid is not None:
-            self.split = {"fluid": FluidOnRanks(self, comm, halo_supports, ppe)}
+            self.split = {"fluid": FluidOnRanks(self, comm, halo, ppe)}
         else:
-            self.split = {name: SoilOnRanks(comm, body, halo_supports * SUPPORT * body.h)
+            self.split = {name: SoilOnRanks(comm, body, halo * SUPPORT * body.h)
                           for name, body in self.structures.items()}
         self.ranks = next(iter(self.split.values()))
         if self.coupling is not None:  # the structures: whole on every rank
@@ -285,7 +337,15 @@ class RankSimulation(Simulation):
         """The stable step over all ranks (each rank's limit over its own particles and
         ghosts: the minimum of the ranks' limits is the serial run's)."""
         limits, dt = super().step_limits()
-        return limits, float(global_reduce(self.comm, np.array([dt]), "min")[0])
+        dt = float(global_reduce(self.comm, np.array([dt]), "min")[0])
+        lim = self.fluid.dt_limits if self.fluid is not None else {}
+        if lim:  # the fluid's recorded limits (step table) over every rank, as the serial
+            keys = [k for k in lim if k != "nu_max"]
+            low = global_reduce(self.comm, np.array([lim[k] for k in keys]), "min")
+            lim.update(zip(keys, low.tolist(), strict=True))
+            lim["nu_max"] = float(global_reduce(self.comm, np.array([lim["nu_max"]]),
+                                                "max")[0])
+        return limits, dt
 
     def step(self, dt_max=math.inf, to_end=False):
         """One step of every rank's particles (:meth:`Simulation.step` on the rank's own

@@ -49,7 +49,7 @@ def main(argv=None):
     comm = MPI.COMM_WORLD
     case = Path(args.case) if Path(args.case).is_file() else CASES / args.case
     sets = [f"case.dx={args.dx}"]
-    kw = {"ppe": args.ppe} if args.halo is None else {"halo_supports": args.halo,
+    kw = {"ppe": args.ppe} if args.halo is None else {"halo": args.halo,
                                                       "ppe": args.ppe}
     par = RankSimulation(load_config(case, sets), comm, **kw)
     for _ in range(args.steps):
