@@ -11,6 +11,7 @@ called by every rank of the communicator, in the same order, like any MPI collec
 
 import os
 import sys
+from contextlib import contextmanager
 
 import numpy as np
 
@@ -201,6 +202,33 @@ def wait_quietly(request):
 
     while not request.Test():
         time.sleep(POLL_S)
+
+
+@contextmanager
+def node_threads(node_ranks):
+    """Within: this rank's numba threads times ``node_ranks`` (the cores of the ranks of
+    its node that wait for it quietly, :func:`wait_quietly`)."""
+    import numba
+
+    threads = numba.get_num_threads()
+    numba.set_num_threads(min(numba.config.NUMBA_NUM_THREADS, threads * node_ranks))
+    try:
+        yield
+    finally:
+        numba.set_num_threads(threads)
+
+
+def on_rank_zero(comm, node_ranks, fn, *args):
+    """``fn(*args)`` on rank 0 with its node's threads (:func:`node_threads`) while the
+    other ranks wait without spinning; its result on rank 0, None on the others.
+    Collective."""
+    out = None
+    if comm.rank == 0:
+        with node_threads(node_ranks):
+            out = fn(*args)
+    if comm.size > 1:
+        wait_quietly(comm.Ibarrier())
+    return out
 
 
 def ranks_on_this_node(comm):

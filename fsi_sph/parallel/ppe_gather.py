@@ -22,7 +22,12 @@ import numpy as np
 import scipy.sparse as sp
 
 from fsi_sph.fluid.ppe import PressureSolver
-from fsi_sph.parallel.comm import exchange_arrays, ranks_on_this_node, wait_quietly
+from fsi_sph.parallel.comm import (
+    exchange_arrays,
+    node_threads,
+    ranks_on_this_node,
+    wait_quietly,
+)
 from fsi_sph.parallel.low_rank import gathered_terms, local_parts
 
 
@@ -88,14 +93,10 @@ class GatheredPressureSolver:
         """The global system put together from the ranks' ``parts`` and solved by the
         serial solver, on rank 0 with the numba threads of every rank of this node (they
         wait for the result without spinning: :func:`wait_quietly`)."""
-        threads = numba.get_num_threads()
-        numba.set_num_threads(min(numba.config.NUMBA_NUM_THREADS, threads * self.node_ranks))
-        try:
+        with node_threads(self.node_ranks):
             A, b, x0 = global_system(parts, rows.n_global)
             low_rank = gathered_terms(parts, rows.n_global) if len(parts[0]) > 6 else None
             return self.serial.solve(A, b, x0, rows.nf_global, low_rank)
-        finally:
-            numba.set_num_threads(threads)
 
 
 def to_root(comm, a):

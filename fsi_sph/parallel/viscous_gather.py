@@ -14,13 +14,17 @@ the numba threads of its node while the other ranks wait without spinning.
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 import scipy.sparse as sp
 
 from fsi_sph.fluid.viscous_operators import TransposeTerm
 from fsi_sph.fluid.viscous_solvers import solve_implicit
-from fsi_sph.parallel.comm import gather_rows_to_root, ranks_on_this_node, wait_quietly
+from fsi_sph.parallel.comm import (
+    gather_rows_to_root,
+    node_threads,
+    ranks_on_this_node,
+    wait_quietly,
+)
 from fsi_sph.parallel.ppe_gather import RowNumbering, owned_rows, place_rows, to_root
 
 
@@ -89,9 +93,5 @@ class GatheredViscousSolve:
 
     def solve_here(self, A, rhs, x0, rtol, coupled, pre):
         """The serial solve on rank 0 with the numba threads of every rank of its node."""
-        threads = numba.get_num_threads()
-        numba.set_num_threads(min(numba.config.NUMBA_NUM_THREADS, threads * self.node_ranks))
-        try:
+        with node_threads(self.node_ranks):
             return solve_implicit(A, rhs, x0, rtol, coupled, pre)
-        finally:
-            numba.set_num_threads(threads)
