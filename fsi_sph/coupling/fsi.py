@@ -104,8 +104,6 @@ class FsiCoupling:
         # it (fsi_sph/parallel/ranks.py); None in a serial run
         self.owned_rows = None
         self.fluid_power = interface_power  # (on several ranks: over every rank's fluid)
-        # on several ranks: the bodies sub-cycled by one rank and sent to the others
-        self.on_one_rank = None
 
     def before_fluid(self):
         for b, sl in zip(self.bodies, self.slices, strict=True):
@@ -181,17 +179,6 @@ class FsiCoupling:
         force = self.on_structure + self.fluid.guard_force
         if self.owned_rows is not None:
             force = self.owned_rows(force)
-        if self.on_one_rank is None:
-            self.advance_bodies(force, dt)
-        else:
-            self.on_one_rank(self.advance_bodies, force, dt)
-        self.power_structure = interface_power(force, self.v_bar)
-        self.power_fluid = self.fluid_power(self.on_fluid, self.fluid.body["v"])
-        return self.n_sub
-
-    def advance_bodies(self, force, dt):
-        """Sub-cycle every body over ``dt`` under ``force`` (held): its state, its mean
-        velocity and acceleration over the step (``v_bar``, ``a_bar``) and its sub-steps."""
         for b, sl in zip(self.bodies, self.slices, strict=True):
             b.body["f_ext"][:] = force[sl]
             v0 = b.body["v"].copy()
@@ -201,3 +188,6 @@ class FsiCoupling:
             b.body["v_bar"][:] = self.v_bar[sl]
             b.body["a_bar"][:] = self.a_bar[sl]
             self.n_sub[b.name] = n
+        self.power_structure = interface_power(force, self.v_bar)
+        self.power_fluid = self.fluid_power(self.on_fluid, self.fluid.body["v"])
+        return self.n_sub

@@ -218,19 +218,6 @@ def node_threads(node_ranks):
         numba.set_num_threads(threads)
 
 
-def on_rank_zero(comm, node_ranks, fn, *args):
-    """``fn(*args)`` on rank 0 with its node's threads (:func:`node_threads`) while the
-    other ranks wait without spinning; its result on rank 0, None on the others.
-    Collective."""
-    out = None
-    if comm.rank == 0:
-        with node_threads(node_ranks):
-            out = fn(*args)
-    if comm.size > 1:
-        wait_quietly(comm.Ibarrier())
-    return out
-
-
 def ranks_on_this_node(comm):
     """How many ranks of ``comm`` share this node (1 for a serial communicator)."""
     if comm.size == 1:

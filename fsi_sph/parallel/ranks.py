@@ -38,12 +38,7 @@ import time
 import numpy as np
 
 from fsi_sph.errors import SimulationError
-from fsi_sph.parallel.comm import (
-    gather_rows,
-    global_reduce,
-    on_rank_zero,
-    ranks_on_this_node,
-)
+from fsi_sph.parallel.comm import gather_rows, global_reduce
 from fsi_sph.parallel.ppe_blocks import numbering, petsc_numbering
 from fsi_sph.parallel.ppe_gather import GatheredPressureSolver, RowNumbering
 from fsi_sph.parallel.split import BodyOnRanks, SoilOnRanks, replace_rows
@@ -153,7 +148,6 @@ class FluidOnRanks(BodyOnRanks):
             fl.viscous.implicit_solve = GatheredViscousSolve(comm, self)
         self.x_start = None  # the rows' positions at the start of the last step
         self.wall_own = None
-        self.node_ranks = ranks_on_this_node(comm)  # (rank 0's threads for the whole view)
 
     def boundary_x(self):
         """The boundary rows' positions: the fixed walls and the structures, which every
@@ -269,11 +263,8 @@ class FluidOnRanks(BodyOnRanks):
         whole = {k: self.gathered(k, root_only=True) for k in fl.body.arrays}
         x_start = self.gathered("x_start", root_only=True) if self.x_start is not None else None
         phi = self.gathered("phi", root_only=True) if "phi" in self.own else None
-        on_rank_zero(self.comm, self.node_ranks, self.whole_fluid, whole, x_start, phi)
-
-    def whole_fluid(self, whole, x_start, phi):
-        """Rank 0's fluid body becomes every particle (:meth:`global_view`)."""
-        fl = self.fluid
+        if self.comm.rank != 0:
+            return
         if phi is not None:  # (the restart state holds the serial layout)
             inc = fl.pressure.increments
             inc.phi_all = np.concatenate([phi, inc.phi_all[len(inc.phi_all)
@@ -303,30 +294,11 @@ class RankSimulation(Simulation):
             self.split = {name: SoilOnRanks(comm, body, halo * SUPPORT * body.h)
                           for name, body in self.structures.items()}
         self.ranks = next(iter(self.split.values()))
-        self.node_ranks = ranks_on_this_node(comm)
         if self.coupling is not None:  # the structures: whole on every rank
             self.coupling.owned_rows = self.ranks.owned_structure_rows
             self.coupling.fluid_power = self.ranks.fluid_power
-            self.coupling.on_one_rank = self.structures_on_rank_zero
         self.writes_output = comm.rank == 0
         self.viewed = 0  # the step whose global state the bodies hold (None: none)
-
-    def structures_on_rank_zero(self, advance, force, dt):
-        """The coupled structures sub-cycled by rank 0 with its node's threads
-        (``advance(force, dt)``, :meth:`FsiCoupling.advance_bodies`), their state sent to
-        the other ranks (every array of each body: a solid holds no other state, as its
-        restart shows); collective."""
-        c = self.coupling
-        on_rank_zero(self.comm, self.node_ranks, advance, force, dt)
-        done = None
-        if self.comm.rank == 0:
-            done = ([b.body.arrays for b in c.bodies], c.v_bar, c.a_bar, c.n_sub)
-        arrays, c.v_bar[:], c.a_bar[:], n_sub = self.comm.bcast(done, root=0)
-        c.n_sub.update(n_sub)
-        if self.comm.rank != 0:
-            for b, mine in zip(c.bodies, arrays, strict=True):
-                for k, a in mine.items():
-                    b.body.arrays[k][...] = a
 
     def gather_view(self):
         """Every split body holds every particle (:meth:`BodyOnRanks.global_view`), once per
