@@ -257,12 +257,11 @@ def _print_scene(cfg, est, sim):
 
 def _ranks_text(sim):
     """What `mpiexec -n P fsi-sph run` does with this scene (fsi_sph/parallel/ranks.py)."""
-    from fsi_sph.parallel.ranks import check_scene, engine_text, halo_supports
+    from fsi_sph.parallel.ranks import engine_text, halo_supports, not_split
 
-    try:
-        check_scene(sim)
-    except SimulationError as e:
-        return str(e)
+    missing = not_split(sim)
+    if missing:
+        return "refused, runs on one rank only (not split yet: " + "; ".join(missing) + ")"
     if sim.fluid is None:
         return (f"the soils split into strips, a halo of {halo_supports(sim)} kernel supports")
     return (f"the fluid split into strips, a halo of {halo_supports(sim)} kernel supports, "

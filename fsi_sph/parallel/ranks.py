@@ -90,11 +90,10 @@ def engine_text(choice="auto"):
                               " (petsc4py not installed)")
 
 
-def check_scene(sim):
-    """Raise :class:`SimulationError` naming what a scene holds that is not split over
-    ranks yet (the run works on one rank). Split: a fluid (Newtonian or granular) with its
-    fixed walls, coupled structures and free bodies (fixed or shaken tank), or
-    Drucker-Prager soils alone."""
+def not_split(sim):
+    """What a scene holds that is not split over ranks yet (empty: every part is). Split: a
+    fluid (Newtonian or granular) with its fixed walls, coupled structures and free bodies
+    (fixed or shaken tank), or Drucker-Prager soils alone."""
     fl = sim.fluid
     missing = []
     solids = [n for n, b in sim.structures.items() if b.body.kind != "soil"]
@@ -108,6 +107,13 @@ def check_scene(sim):
         missing.append("open boundaries")
     if fl is not None and fl.periodic is not None:
         missing.append("periodic fluid")
+    return missing
+
+
+def check_scene(sim):
+    """Raise :class:`SimulationError` naming what a scene holds that is not split over
+    ranks yet (:func:`not_split`; the run works on one rank)."""
+    missing = not_split(sim)
     if missing:
         raise SimulationError("not yet on several MPI ranks: " + "; ".join(missing)
                               + " (run it on one rank)")

@@ -123,11 +123,16 @@ def test_a_halo_of_one_support_is_not_enough():
     ("cases/oscillating_plate.toml", ["case.dx=0.004"], "structures without a fluid (plate)"),
     ("cases/bagnold.toml", [], "periodic fluid"),
 ])
-def test_scenes_not_split_yet_are_refused(case, sets, reason):
+def test_scenes_not_split_yet_are_refused(case, sets, reason, capsys):
     sim = Simulation(load_config(ROOT / case, sets))
     with pytest.raises(SimulationError, match="not yet on several MPI ranks") as err:
         check_scene(sim)
     assert reason in str(err.value)
+    assert main(["info", str(ROOT / case), *[a for kv in sets for a in ("--set", kv)]]) == 0
+    line = next(ln for ln in capsys.readouterr().out.splitlines()
+                if ln.startswith("several MPI ranks:"))
+    assert line == ("several MPI ranks: refused, runs on one rank only (not split yet: "
+                    f"{reason})"), line
 
 
 def physical_datasets(path):
