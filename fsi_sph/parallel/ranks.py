@@ -55,6 +55,12 @@ HALO_SUPPORTS = 4
 HALO_SUPPORTS_VISCOUS = 6
 
 
+#: how far (kernel supports) an owned particle may stray outside its strip before the
+#: particles move to their strips' ranks: the halos above are one support deeper than
+#: measured necessary, so a particle that far out still has every neighbour it reads
+STRAY_SUPPORTS = 1
+
+
 def halo_supports(sim):
     """The halo depth the scene's fluid needs (:data:`HALO_SUPPORTS` or, with a viscosity
     law or the implicit viscous step, :data:`HALO_SUPPORTS_VISCOUS`)."""
@@ -135,7 +141,8 @@ class FluidOnRanks(BodyOnRanks):
 
     def __init__(self, sim, comm, halo_supports=HALO_SUPPORTS, ppe="auto"):
         fl = sim.fluid
-        super().__init__(comm, fl, halo_supports * SUPPORT * fl.h)
+        super().__init__(comm, fl, halo_supports * SUPPORT * fl.h,
+                         STRAY_SUPPORTS * SUPPORT * fl.h)
         self.fluid = fl
         self.nf_global = fl.nf
         self.x_walls = fl.x_all[fl.nf:fl.nf + fl.n_fixed].copy()
@@ -297,7 +304,8 @@ class RankSimulation(Simulation):
         if self.fluid is not None:
             self.split = {"fluid": FluidOnRanks(self, comm, halo, ppe)}
         else:
-            self.split = {name: SoilOnRanks(comm, body, halo * SUPPORT * body.h)
+            self.split = {name: SoilOnRanks(comm, body, halo * SUPPORT * body.h,
+                                            STRAY_SUPPORTS * SUPPORT * body.h)
                           for name, body in self.structures.items()}
         self.ranks = next(iter(self.split.values()))
         if self.coupling is not None:  # the structures: whole on every rank

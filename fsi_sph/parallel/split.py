@@ -28,10 +28,11 @@ class BodyOnRanks:
     the ranks of ``comm`` with a halo ``width`` deep. Subclasses lay the rows out in their
     body (:meth:`relayout`) and may add fields to the exchange (:meth:`numbered`)."""
 
-    def __init__(self, comm, obj, width):
+    def __init__(self, comm, obj, width, slack=0.0):
         self.comm = comm
         self.obj = obj
         self.width = width
+        self.slack = slack  # how far an owned particle may stray from its strip
         x = obj.body["x"]
         self.n_global = len(x)
         self.strips = partition(comm, x if comm.rank == 0 else x[:0], width)
@@ -39,6 +40,7 @@ class BodyOnRanks:
         self.is_own = self.order = self.gid = self.halo = None
         self.n_own = 0
         self.rebalanced = 0  # times the strips were cut anew
+        self.migrations = 0  # steps at which particles moved to their strips' ranks
         self.traffic = [0, 0]  # bytes and messages this rank sent in the ghost exchanges
 
     def own_from_body(self):
@@ -54,10 +56,15 @@ class BodyOnRanks:
         anew from their owners, the body's rows laid out in global-id order; returns
         ``(own, ghost)``, the exchanged dicts (a subclass numbers rows from them)."""
         comm = self.comm
-        if needs_rebalance(comm, len(self.own["gid"]), REBALANCE):
+        rebalance = needs_rebalance(comm, len(self.own["gid"]), REBALANCE)
+        if rebalance:
             self.strips = partition(comm, self.own["x"], self.width)
             self.rebalanced += 1
-        own = self.numbered(migrate(comm, self.strips, self.own))
+        own = dict(self.own)
+        if rebalance or self.strayed():
+            own = migrate(comm, self.strips, self.own)
+            self.migrations += 1
+        own = self.numbered(own)
         self.halo = Halo.build(comm, self.strips, own["x"], self.width)
         ghost = {}
         for k, a in own.items():
@@ -72,6 +79,16 @@ class BodyOnRanks:
         self.relayout({k: np.concatenate([own[k], ghost[k]])[order]
                        for k in self.obj.body.arrays})
         return own, ghost
+
+    def strayed(self):
+        """True when an owned particle on any rank lies farther than ``slack`` outside its
+        rank's strip: then every particle goes to the strip it is in. Between, the owners
+        stay, and with them the rows of the PPE (PETSc keeps its preconditioner while they
+        do); a halo ``slack`` deeper than the step needs keeps every owned particle exact.
+        Collective."""
+        x = self.own["x"]
+        far = float(np.max(self.strips.distance(x, self.comm.rank), initial=0.0))
+        return float(global_reduce(self.comm, np.array([far]), "max")[0]) > self.slack
 
     def numbered(self, own):
         """The owned particles' dict before the ghost exchange (a subclass adds fields)."""
@@ -107,8 +124,8 @@ class SoilOnRanks(BodyOnRanks):
     """A Drucker-Prager soil body split over ranks: each rank sub-steps its own particles
     and ghosts by the serial sub-step (one sub-step per step in a soil scene)."""
 
-    def __init__(self, comm, obj, width):
-        super().__init__(comm, obj, width)
+    def __init__(self, comm, obj, width, slack=0.0):
+        super().__init__(comm, obj, width, slack)
         obj.grid_origin = self.lowest_corner
 
     def lowest_corner(self, corner):

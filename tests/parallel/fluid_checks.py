@@ -74,6 +74,7 @@ def main(argv=None):
     same = all(np.array_equal(got[k], want[k]) for k in got)
     engine = getattr(par.ranks, "engine", "-")
     print(f"ranks {comm.size} ({engine}): owned {n_own}, rebalanced {par.ranks.rebalanced}, "
+          f"migrated {par.ranks.migrations} of {args.steps} steps, "
           f"t {par.t:.12g} vs {ser.t:.12g}, identical {same}, largest differences "
           f"{ {k: f'{v:.3g}' for k, v in worst.items() if v > 0} }", flush=True)
     if args.identical:
