@@ -29,15 +29,12 @@ class RigidTerms:
     pair_body: np.ndarray
     pair: np.ndarray
 
-    def G(self, n=None, columns=None):
-        """``G`` dense (3 per body x ``n`` columns, default all rows); ``columns`` renumbers
-        the rows to other columns (a rank's rows to the global ones)."""
+    def G(self, n=None):
+        """``G`` dense (3 per body x ``n`` columns, default all rows), summed pair by pair in
+        the pairs' order."""
         n = self.U.shape[0] if n is None else n
-        col_i, col_f = self.pair_row, self.pair_fluid
-        if columns is not None:
-            col_i, col_f = columns[col_i], columns[col_f]
         G = np.zeros((self.U.shape[1], n))
-        add_pair_terms(self.pair_body, col_i, col_f, self.pair, G)
+        add_pair_terms(self.pair_body, self.pair_row, self.pair_fluid, self.pair, G)
         return G
 
 

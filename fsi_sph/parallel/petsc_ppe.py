@@ -114,7 +114,8 @@ class PetscPressureSolver:
         self.vecs = None  # (x, b, r) in the matrix's layout
         self.pattern = None  # (row_start, indptr, gcols) of self.mat on this rank
         self.n_global = None
-        self.op = None  # the operator: the matrix, or with free bodies A + U G (a shell)
+        self.op = None  # the operator: the matrix, or with free bodies A + U G (MATLRC)
+        self.dense = None  # the storage of MATLRC's U and V (PETSc does not copy it)
         self.reuse = KeptPreconditioner(cfg)  # the serial solver's reuse policy
 
     # -- collective helpers -------------------------------------------------------------
