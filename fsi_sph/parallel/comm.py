@@ -235,19 +235,19 @@ def gather_rows(comm, index, values, n):
     """The ``n`` rows of which every rank holds some (``values`` at rows ``index``; each row
     on exactly one rank), on every rank: an all-gather; collective."""
     values = np.asarray(values)
-    out = np.empty((n, *values.shape[1:]), values.dtype)
-    for idx, vals in comm.allgather((np.asarray(index), values)):
-        out[idx] = vals
-    return out
+    return placed(comm.allgather((np.asarray(index), values)), n, values)
 
 
 def gather_rows_to_root(comm, index, values, n):
     """:func:`gather_rows` to rank 0 alone (the other ranks get None); collective."""
     values = np.asarray(values)
     parts = comm.gather((np.asarray(index), values), root=0)
-    if parts is None:
-        return None
-    out = np.empty((n, *values.shape[1:]), values.dtype)
+    return None if parts is None else placed(parts, n, values)
+
+
+def placed(parts, n, like):
+    """``n`` rows (dtype and trailing shape of ``like``) from ``(index, values)`` parts."""
+    out = np.empty((n, *like.shape[1:]), like.dtype)
     for idx, vals in parts:
         out[idx] = vals
     return out

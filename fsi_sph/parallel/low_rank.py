@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from fsi_sph.fluid.boundary import RigidTerms
+from fsi_sph.sph.interface import add_pair_terms
 
 
 def local_parts(terms, rows):
@@ -52,5 +53,11 @@ def block_terms(comm, terms, rows, row_start, n_local):
     U, *pairs = local_parts(terms, rows)
     every = comm.allgather(pairs)
     whole = global_pairs(*([p[k] for p in every] for k in range(4)), U)
-    G = whole.G(rows.n_global)
-    return U, np.ascontiguousarray(G[:, row_start:row_start + n_local])
+    # the block's columns, and one more that takes every other column's terms
+    def column(c):
+        inside = (c >= row_start) & (c < row_start + n_local)
+        return np.where(inside, c - row_start, n_local)
+    G = np.zeros((U.shape[1], n_local + 1))
+    add_pair_terms(whole.pair_body, column(whole.pair_row), column(whole.pair_fluid),
+                   whole.pair, G)
+    return U, np.ascontiguousarray(G[:, :n_local])

@@ -125,27 +125,33 @@ def global_system(parts, n_global):
     """The global matrix, right-hand side and initial guess from every rank's
     :func:`owned_rows`, rows in global order; each global row must come exactly once."""
     g_rows = np.concatenate([p[0] for p in parts]).astype(np.int64)
-    lengths = np.concatenate([p[1] for p in parts])
     seen = np.bincount(g_rows, minlength=n_global) if len(g_rows) else np.zeros(n_global)
     if len(g_rows) != n_global or len(seen) != n_global or np.any(seen != 1):
         raise RuntimeError(f"PPE on ranks: {len(g_rows)} rows gathered for {n_global} "
                            "(a row missing or owned twice)")
-    src = np.zeros(len(lengths) + 1, dtype=np.int64)
-    np.cumsum(lengths, out=src[1:])
-    indptr = np.zeros(n_global + 1, dtype=np.int64)
-    np.cumsum(np.bincount(g_rows, weights=lengths, minlength=n_global).astype(np.int64),
-              out=indptr[1:])
-    indices = np.empty(indptr[-1], dtype=np.int32)
-    data = np.empty(indptr[-1])
-    place_rows(np.concatenate([p[2] for p in parts]), np.concatenate([p[3] for p in parts]),
-                src, g_rows, indptr, indices, data)
-    A = sp.csr_array((data, indices, indptr.astype(np.int32)), shape=(n_global, n_global))
+    A = global_matrix(g_rows, *(np.concatenate([p[k] for p in parts]) for k in (1, 2, 3)),
+                      n_global)
     A.has_sorted_indices = True
     b = np.empty(n_global)
     x0 = np.empty(n_global)
     b[g_rows] = np.concatenate([p[4] for p in parts])
     x0[g_rows] = np.concatenate([p[5] for p in parts])
     return A, b, x0
+
+
+def global_matrix(g_rows, lengths, cols, vals, n):
+    """The ``n x n`` CSR matrix of packed rows (``lengths`` entries each, global columns
+    ``cols``) placed at their global rows ``g_rows``, each row's entries in their order."""
+    g_rows = np.asarray(g_rows, dtype=np.int64)
+    src = np.zeros(len(lengths) + 1, dtype=np.int64)
+    np.cumsum(lengths, out=src[1:])
+    indptr = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(np.bincount(g_rows, weights=lengths, minlength=n).astype(np.int64),
+              out=indptr[1:])
+    indices = np.empty(indptr[-1], dtype=np.int32)
+    data = np.empty(indptr[-1])
+    place_rows(cols, vals, src, g_rows, indptr, indices, data)
+    return sp.csr_array((data, indices, indptr.astype(np.int32)), shape=(n, n))
 
 
 @numba.njit(cache=True, parallel=True)

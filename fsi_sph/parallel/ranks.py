@@ -53,8 +53,6 @@ HALO_SUPPORTS = 4
 #: neighbours' results more times over (the granular collapse on 2 ranks: 5 supports
 #: repeat the serial run bit for bit over 100 steps, 4 do not)
 HALO_SUPPORTS_VISCOUS = 6
-
-
 #: how far (kernel supports) an owned particle may stray outside its strip before the
 #: particles move to their strips' ranks: the halos above are one support deeper than
 #: measured necessary, so a particle that far out still has every neighbour it reads
@@ -66,6 +64,8 @@ def halo_supports(sim):
     law or the implicit viscous step, :data:`HALO_SUPPORTS_VISCOUS`)."""
     fl = sim.fluid
     return HALO_SUPPORTS_VISCOUS if fl is not None and fl.viscous is not None else HALO_SUPPORTS
+
+
 #: how the PPE of a split fluid is solved: gathered to rank 0 (ppe_gather.py) or by PETSc
 #: over the ranks (ppe_blocks.py, petsc_ppe.py)
 ENGINES = {"gather": "the PPE gathered to rank 0 and solved there by pyamg",

@@ -15,7 +15,6 @@ the numba threads of its node while the other ranks wait without spinning.
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sp
 
 from fsi_sph.fluid.viscous_operators import TransposeTerm
 from fsi_sph.fluid.viscous_solvers import solve_implicit
@@ -25,7 +24,7 @@ from fsi_sph.parallel.comm import (
     ranks_on_this_node,
     wait_quietly,
 )
-from fsi_sph.parallel.ppe_gather import RowNumbering, owned_rows, place_rows, to_root
+from fsi_sph.parallel.ppe_gather import RowNumbering, global_matrix, owned_rows, to_root
 
 
 def gathered_matrix(comm, M, rows):
@@ -37,17 +36,7 @@ def gathered_matrix(comm, M, rows):
     parts = [to_root(comm, a) for a in part]
     if comm.rank != 0:
         return None
-    g_rows, lengths, cols, vals = (np.concatenate(p) for p in parts)
-    n = rows.n_global
-    indptr = np.zeros(n + 1, dtype=np.int64)
-    np.cumsum(np.bincount(g_rows.astype(np.int64), weights=lengths, minlength=n)
-              .astype(np.int64), out=indptr[1:])
-    src = np.zeros(len(lengths) + 1, dtype=np.int64)
-    np.cumsum(lengths, out=src[1:])
-    indices = np.empty(indptr[-1], dtype=np.int32)
-    data = np.empty(indptr[-1])
-    place_rows(cols, vals, src, g_rows.astype(np.int64), indptr, indices, data)
-    return sp.csr_array((data, indices, indptr), shape=(n, n))
+    return global_matrix(*(np.concatenate(p) for p in parts), rows.n_global)
 
 
 class GatheredViscousSolve:
