@@ -67,17 +67,26 @@ def check_scene(cfg, label, force=False) -> SceneEstimate:
 
 
 # ---------------------------------------------------------------------- shapes
+def _kind(shape):
+    return getattr(shape, "shape", "rectangle")
+
+
 def _bounds(shape):
-    """(x_min, y_min, x_max, y_max) of a rectangle or polygon."""
-    if getattr(shape, "shape", "rectangle") == "polygon":
+    """(x_min, y_min, x_max, y_max) of a rectangle, polygon or circle."""
+    if _kind(shape) == "polygon":
         v = np.asarray(shape.vertices)
         return (*v.min(axis=0), *v.max(axis=0))
+    if _kind(shape) == "circle":
+        (x, y), r = shape.centre, shape.radius
+        return x - r, y - r, x + r, y + r
     (x, y), (w, h) = shape.origin, shape.size
     return x, y, x + w, y + h
 
 
 def _area(shape):
-    if getattr(shape, "shape", "rectangle") == "polygon":
+    if _kind(shape) == "circle":
+        return math.pi * shape.radius**2
+    if _kind(shape) == "polygon":
         v = np.asarray(shape.vertices)
         return 0.5 * abs(float(np.dot(v[:, 0], np.roll(v[:, 1], -1))
                                - np.dot(v[:, 1], np.roll(v[:, 0], -1))))
@@ -86,19 +95,20 @@ def _area(shape):
 
 def _count(shape, dx):
     """Particles of a shape's lattice fill (exact for a rectangle)."""
-    if getattr(shape, "shape", "rectangle") == "polygon":
+    if _kind(shape) != "rectangle":
         return _area(shape) / dx**2
     return round(shape.size[0] / dx) * round(shape.size[1] / dx)
 
 
 def _overlap(a, b, samples=64):
-    """Area (m^2) common to two shapes: exact for rectangles, sampled for polygons."""
+    """Area (m^2) common to two shapes: exact for rectangles, sampled for polygons and
+    circles."""
     ax0, ay0, ax1, ay1 = _bounds(a)
     bx0, by0, bx1, by1 = _bounds(b)
     x0, y0, x1, y1 = max(ax0, bx0), max(ay0, by0), min(ax1, bx1), min(ay1, by1)
     if x1 <= x0 or y1 <= y0:
         return 0.0
-    if "polygon" not in (getattr(a, "shape", ""), getattr(b, "shape", "")):
+    if _kind(a) == _kind(b) == "rectangle":
         return (x1 - x0) * (y1 - y0)
     s = (np.arange(samples) + 0.5) / samples
     gx, gy = np.meshgrid(x0 + s * (x1 - x0), y0 + s * (y1 - y0))
@@ -112,7 +122,10 @@ def distance_to_shape(point, shape):
     p = np.asarray(point, dtype=np.float64)
     if in_shapes(p[None, :], [shape])[0]:
         return 0.0
-    if getattr(shape, "shape", "rectangle") != "polygon":
+    if _kind(shape) == "circle":
+        return max(math.hypot(p[0] - shape.centre[0], p[1] - shape.centre[1]) - shape.radius,
+                   0.0)
+    if _kind(shape) != "polygon":
         x0, y0, x1, y1 = _bounds(shape)
         return math.hypot(max(x0 - p[0], 0.0, p[0] - x1), max(y0 - p[1], 0.0, p[1] - y1))
     v = np.asarray(shape.vertices, dtype=np.float64)
@@ -256,7 +269,7 @@ def check_thickness(cfg, label):
     """A solid or soil rectangle one particle across makes a singular correction matrix."""
     dx = cfg.case.dx
     for name, j, s in _structure_blocks(cfg):
-        if getattr(s, "shape", "rectangle") == "polygon":
+        if _kind(s) == "polygon":
             continue
         thin = min(s.size)
         if round(thin / dx) < 2:
