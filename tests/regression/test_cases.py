@@ -14,7 +14,7 @@ from fsi_sph.simulation import Simulation
 
 CASES = sorted((Path(__file__).resolve().parents[2] / "cases").glob("*.toml"))
 #: coarse resolution per case for the smoke runs
-COARSE = {"oscillating_plate": 0.004}
+COARSE = {"oscillating_plate": 0.004, "turek_hron_fsi2": 0.01}
 
 
 @pytest.mark.parametrize("case", CASES, ids=[c.stem for c in CASES])

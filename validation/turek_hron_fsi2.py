@@ -1,0 +1,90 @@
+"""Turek & Hron (2006) FSI2: the elastic flag behind a cylinder in a channel oscillates by
+itself at Re = 100 (cases/turek_hron_fsi2.toml).
+
+Reference (Turek & Hron 2006, the benchmark's table for FSI2, periodic state; each value is
+``mean +- amplitude`` with ``mean = (max + min) / 2``, ``amplitude = (max - min) / 2`` over
+the last periods, and the frequency of the signal):
+
+- point A (the flag's end): ``u_x = -14.58 +- 12.44 mm`` at 3.8 Hz, ``u_y = 1.23 +- 80.6 mm``
+  at 2.0 Hz;
+- drag ``208.83 +- 73.75 N/m``, lift ``0.88 +- 234.2 N/m`` (cylinder and flag together: the
+  ``cylinder_force`` and ``flag_force`` probes summed).
+
+Measured over the last ``WINDOW`` seconds of the run. Errors are signed %; the means of
+``u_y`` and of the lift (references near zero) are reported as values only. A plot of the
+tip's displacement over the whole run with the reference's band is written beside the record.
+The ladder is D / dx = 10 / 20 (dx 0.01 / 0.005 m: two / four particles through the flag);
+``--quick`` runs the first.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from fsi_sph.output import read_probe
+from validation.common import make_record, run_case, write_outputs
+from validation.turek_hron_measures import body_force, periodic_errors
+
+CASE = Path(__file__).resolve().parents[1] / "cases" / "turek_hron_fsi2.toml"
+LADDER = [0.01, 0.005]   # m; D / dx = 10, 20
+QUICK = [0.01]
+WINDOW = 3.0             # s: the last seconds of the run are measured
+#: Turek & Hron 2006, FSI2: (mean, amplitude, frequency in Hz)
+REF = {"ux_mm": (-14.58, 12.44, 3.8), "uy_mm": (1.23, 80.6, 2.0),
+       "drag_N_per_m": (208.83, 73.75, None), "lift_N_per_m": (0.88, 234.2, 2.0)}
+REFERENCE = ("Turek & Hron 2006 FSI2: point A u_x -14.58 +- 12.44 mm (3.8 Hz), u_y 1.23 +- "
+             "80.6 mm (2.0 Hz); drag 208.83 +- 73.75, lift 0.88 +- 234.2 N/m")
+
+
+def signals(run_file):
+    """Time and the four signals of the benchmark (mm and N/m) from a run's probes."""
+    t, tip = read_probe(run_file, "tip")
+    _, drag, lift = body_force(run_file, ("cylinder_force", "flag_force"))
+    return t, {"ux_mm": 1e3 * tip["ux"], "uy_mm": 1e3 * tip["uy"],
+               "drag_N_per_m": drag, "lift_N_per_m": lift}
+
+
+def measure(sim, run_file):
+    t, sig = signals(run_file)
+    return periodic_errors(t, sig, REF, WINDOW)
+
+
+def plot_tip(run_files, path):
+    """The tip's u_y (and u_x) against time for each rung, with the reference's band."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(2, 1, figsize=(7.0, 5.6), sharex=True, layout="constrained")
+    for label, run_file in run_files:
+        t, sig = signals(run_file)
+        axes[0].plot(t, sig["uy_mm"], lw=0.8, label=label)
+        axes[1].plot(t, sig["ux_mm"], lw=0.8, label=label)
+    for ax, key in zip(axes, ("uy_mm", "ux_mm"), strict=True):
+        mean, amp, _ = REF[key]
+        for y in (mean - amp, mean + amp):
+            ax.axhline(y, color="k", ls="--", lw=0.8)
+        ax.set_ylabel(f"point A {key[:2].replace('u', 'u_')} (mm)")
+    axes[0].plot([], [], "k--", lw=0.8, label="Turek & Hron 2006: mean +- amplitude")
+    axes[0].legend(fontsize=8)
+    axes[1].set_xlabel("t (s)")
+    fig.suptitle("Turek & Hron FSI2: the flag's end")
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def validate(quick, data_dir, out_dir):
+    ladder = QUICK if quick else LADDER
+    records, runs = [], []
+    for dx in ladder:
+        label = f"dx={dx:g}"
+        run_dir = Path(out_dir) / label
+        sim, summary = run_case(CASE, [f"case.dx={dx}", "case.output_every=1.0"], run_dir)
+        errors, values = measure(sim, run_dir / "run.h5")
+        records.append(make_record(label, dx, summary, errors, values))
+        runs.append((f"D/dx = {0.1 / dx:.0f}", run_dir / "run.h5"))
+    result = {"case": "turek_hron_fsi2", "reference": REFERENCE, "records": records}
+    out = write_outputs(result, out_dir)
+    plot_tip(runs, out / "tip.png")
+    return result
