@@ -124,10 +124,12 @@ class OpenBoundaries:
 
         ``p_buffer``: the buffer rows' pressures (stacked inflow, outflow). Returns ``(keep,
         new_x, new_v, new_p, p_buffer)``: the fluid rows kept, the new fluid particles and
-        the buffer rows' pressures in their new order; ``mass`` (kg/m per particle) counts
-        ``mass_in`` and ``mass_out``."""
+        the buffer rows' pressures in their new order (``crossed``: the inflow buffer rows
+        that became the new fluid particles, in their order); ``mass`` (kg/m per particle)
+        counts ``mass_in`` and ``mass_out``."""
         n_in = self.n_in
         crossed = self.x_in[:, 0] >= self.in_line[self.in_of]
+        self.crossed = np.flatnonzero(crossed)  # (the new fluid particles' buffer rows)
         new_x = self.x_in[crossed].copy()
         new_v = self.v_in[crossed].copy()
         new_p = p_buffer[:n_in][crossed].copy()
