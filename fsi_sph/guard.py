@@ -71,12 +71,13 @@ class Guard:
         ke = sum(_energy(o)[0] for o in bodies.values())
         # open boundaries bring energy in: the bound grows by the inflows' supply
         supply = sum(o.energy_supply() for o in bodies.values() if hasattr(o, "energy_supply"))
-        if ke > self.energy_bound + self.cfg.energy_factor * supply:
+        bound = self.energy_bound + self.cfg.energy_factor * supply
+        if ke > bound:
             name, o = max(bodies.items(), key=lambda kv: _energy(kv[1])[0])
             v2 = np.einsum("ij,ij->i", o.body["v"], o.body["v"])
             i = int(np.argmax(v2))
             raise SimulationError(
-                f"kinetic energy {ke:.4g} J/m past the bound {self.energy_bound:.4g} J/m at "
+                f"kinetic energy {ke:.4g} J/m past the bound {bound:.4g} J/m at "
                 f"{where}; most in body {name!r}, fastest particle {i} at speed "
                 f"{math.sqrt(v2[i]):.4g} m/s (bound = guard.energy_factor x the energy the "
-                f"scene can release)")
+                f"scene can release and its inflows can bring)")

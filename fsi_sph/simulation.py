@@ -284,8 +284,11 @@ class Simulation:
                     flush(True)
             self.check()
         except SimulationError as e:
+            if " at t = " not in str(e):  # (a solver's failure does not know the clock)
+                e = SimulationError(f"{e}, in the step from t = {self.t:.6g} s (step "
+                                    f"{self.n_steps + 1})")
             status = f"failed: {e}"
-            raise
+            raise e from None
         except KeyboardInterrupt:
             status = "failed: interrupted by the user"
             raise

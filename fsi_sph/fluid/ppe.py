@@ -26,6 +26,7 @@ import numpy as np
 import pyamg
 import scipy.sparse as sp
 
+from fsi_sph.errors import SimulationError
 from fsi_sph.fluid import _kernels as K
 from fsi_sph.fluid import amg, krylov
 
@@ -131,7 +132,7 @@ class KeptPreconditioner:
             self.base_iterations = stats.iterations
         self.age += 1
         if stats.residual > self.cfg.rtol:
-            raise RuntimeError(f"{solver}: no convergence in {self.cfg.maxiter} iterations "
+            raise SimulationError(f"{solver}: no convergence in {self.cfg.maxiter} iterations "
                                f"(relative residual {stats.residual:.3g} > {self.cfg.rtol:g})")
 
 

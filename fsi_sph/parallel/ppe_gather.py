@@ -21,6 +21,7 @@ import numba
 import numpy as np
 import scipy.sparse as sp
 
+from fsi_sph.errors import SimulationError
 from fsi_sph.fluid.ppe import PressureSolver
 from fsi_sph.parallel.comm import (
     exchange_arrays,
@@ -84,7 +85,7 @@ class GatheredPressureSolver:
         wait_quietly(self.comm.Ibcast(p, root=0))
         stats, failure = self.comm.bcast((stats, failure), root=0)
         if failure is not None:
-            raise RuntimeError(failure)
+            raise SimulationError(failure)
         stats.assemble_time = 0.0
         stats.solve_time = time.perf_counter() - t0 - stats.setup_time
         return p[rows.global_row], stats

@@ -148,3 +148,37 @@ boxes = [{ origin = [0.0, -0.15], size = [0.5, 0.15] }]
         fluid.load_extra_state({"p_all": saved})
         assert np.array_equal(fluid.p_all[:n], saved[:n])
         assert np.array_equal(fluid.walls.body["p"], saved[fluid.nf:n])
+
+
+DAM = """
+[case]
+t_end = 0.01
+dx = 0.005
+output_every = 0.005
+[fluid]
+material = { rho0 = 1000.0 }
+blocks = [{ origin = [0.0, 0.0], size = [0.2, 0.2] }]
+[walls]
+tanks = [{ origin = [0.0, 0.0], size = [0.6, 0.4] }]
+"""
+
+
+def test_a_pressure_solve_that_fails_ends_the_run_as_failed(tmp_path, capsys):
+    """A PPE that misses its tolerance (here: one iteration allowed; 1 900 rows, more than
+    the coarsest level's direct solve takes) is a failed run like a
+    guard's stop: exit 1, one line that says what failed and when, no traceback, the file's
+    status "failed" and the state before the failed step to restart from (it raised a bare
+    RuntimeError before, and the run file said "completed")."""
+    case = tmp_path / "dam.toml"
+    case.write_text(DAM)
+    out = tmp_path / "o"
+    rc = main(["run", str(case), "--no-progress", "--out", str(out),
+               "--set", "fluid.ppe.maxiter=1", "--set", "fluid.ppe.rebuild_every=1"])
+    err = capsys.readouterr().err
+    assert rc == 1
+    assert "Traceback" not in err
+    assert "PPE: no convergence in 1 iterations" in err and "in the step from t = 0 s" in err
+    with h5py.File(out / "run.h5", "r") as f:
+        assert f.attrs["status"].startswith("failed: PPE: no convergence")
+    clock, state = read_restart(out / "run.h5")  # the state before the failed step
+    assert clock["t"] == 0.0 and np.isfinite(state["fluid"]["x"]).all()
