@@ -15,6 +15,7 @@ from collections import defaultdict
 from pathlib import Path
 
 from fsi_sph.config import Config
+from fsi_sph.coupling.fsi import substeps
 from fsi_sph.errors import SimulationError
 from fsi_sph.frame import frame_of, peak_gravity
 from fsi_sph.guard import Guard
@@ -336,8 +337,7 @@ def _advance_structures(sim, dt):
             continue
         t0 = time.perf_counter()
         n = max(1, math.ceil(dt / body.stable_dt() - 1e-12))
-        for _ in range(n):
-            body.substep(dt / n)
+        substeps(body, dt, n)
         n_sub[name] = n
         sim.particle_steps += n * body.body.n
         sim.timings[body.body.kind] += time.perf_counter() - t0

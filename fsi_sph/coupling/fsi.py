@@ -60,10 +60,18 @@ def advance_structure(body, dt_f, n_sub):
     """Advance ``body`` (it has ``substep(dt)`` and ``.body['x']``, its ``f_ext`` already
     set and held) by ``n_sub`` equal sub-steps; returns the sub-step-averaged velocity."""
     x0 = body.body["x"].copy()
-    dt_s = dt_f / n_sub
-    for _ in range(n_sub):
-        body.substep(dt_s)
+    substeps(body, dt_f, n_sub)
     return (body.body["x"] - x0) / dt_f
+
+
+def substeps(body, dt_f, n):
+    """``n`` equal sub-steps of ``dt_f / n``: the body's own loop where it has one
+    (``ElasticBody.substeps``), else ``substep`` ``n`` times."""
+    if hasattr(body, "substeps"):
+        body.substeps(dt_f / n, n)
+        return
+    for _ in range(n):
+        body.substep(dt_f / n)
 
 
 def interface_power(force, velocity):

@@ -170,6 +170,23 @@ def drift(x, v, dt):
 
 
 @njit(cache=True)
+def substeps(n, dt, x, v, x0, vol, m, F, P, a, f_ext, free, g, damping, nbr_start, nbr_j, gi,
+             gj, w, model, lam, mu, rho0, c0, h, av_alpha, av_beta, hg_coeff, youngs):
+    """``n`` velocity-Verlet sub-steps of ``dt`` (kick dt/2, drift, stress, forces, kick dt/2;
+    :meth:`ElasticBody.substep`, [F 44-45]) in one call: the same loops in the same order,
+    without a return to Python between them (a structure takes tens to hundreds of sub-steps
+    per fluid step)."""
+    half = 0.5 * dt
+    for _ in range(n):
+        kick(v, a, g, f_ext, m, damping, half, free)
+        drift(x, v, dt)
+        deformation_stress(x, vol, nbr_start, nbr_j, gi, model, lam, mu, F, P)
+        accelerations(x, v, x0, vol, F, P, nbr_start, nbr_j, gi, gj, w, rho0, c0, h, av_alpha,
+                      av_beta, hg_coeff, youngs, a)
+        kick(v, a, g, f_ext, m, damping, half, free)
+
+
+@njit(cache=True)
 def strain_energy(F, vol, model, lam, mu):
     """Total stored energy sum_i V_i W(F_i) (serial, fixed summation order)."""
     e = 0.0

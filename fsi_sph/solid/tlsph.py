@@ -190,6 +190,23 @@ class ElasticBody:
         self._accelerations()
         K.kick(b["v"], b["a"], self.gravity, b["f_ext"], b["m"], xi, half, b["free"])
 
+    def substeps(self, dt, n):
+        """``n`` sub-steps of ``dt``: one numba call for the plain elastic body
+        (:func:`_kernels.substeps`, the loops of :meth:`substep` in the same order: bit for bit
+        the same), :meth:`substep` ``n`` times for a rigid body or the conservative hourglass
+        control."""
+        if self.rigid or self.hg_conservative:
+            for _ in range(n):
+                self.substep(dt)
+            return
+        b = self.body
+        av = self.cfg.artificial_viscosity
+        K.substeps(n, dt, b["x"], b["v"], b["x0"], b["vol"], b["m"], b["F"], b["P"], b["a"],
+                   b["f_ext"], b["free"], self.gravity, self.cfg.damping, self.nbr_start,
+                   self.nbr_j, self.gi, self.gj, self.w, self.model, self.lam, self.mu,
+                   self.rho0, self.c0, self.h, av.alpha, av.beta, self.cfg.hourglass.coefficient,
+                   self.youngs)
+
     def _rigid_substep(self, dt):
         """A rigid body (``material.model = "rigid"``) under its weight and the held external
         force ``f_ext``: the centre of mass and the rotation about it advance by
