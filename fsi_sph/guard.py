@@ -45,8 +45,9 @@ class Guard:
         e0 = sum(sum(_energy(o)) for o in bodies.values())
         mass = sum(float(np.sum(o.body["m"])) for o in bodies.values())
         reach = mass * float(np.hypot(*gravity)) * float(np.max(self.hi - self.lo))
-        free = e0 + reach
-        self.energy_bound = cfg.energy_factor * free if free > 0 else math.inf
+        # 0 for a scene at rest without gravity (a through-flow): its bound is then the
+        # inflows' supply alone (check); it was inf, which switched the check off for good
+        self.energy_bound = cfg.energy_factor * (e0 + reach)
 
     def check(self, t, step, bodies: dict):
         """Raise :class:`SimulationError` on the first failed check."""
@@ -72,7 +73,7 @@ class Guard:
         # open boundaries bring energy in: the bound grows by the inflows' supply
         supply = sum(o.energy_supply() for o in bodies.values() if hasattr(o, "energy_supply"))
         bound = self.energy_bound + self.cfg.energy_factor * supply
-        if ke > bound:
+        if ke > bound > 0.0:  # (nothing can give a scene energy: nothing to compare)
             name, o = max(bodies.items(), key=lambda kv: _energy(kv[1])[0])
             v2 = np.einsum("ij,ij->i", o.body["v"], o.body["v"])
             i = int(np.argmax(v2))

@@ -12,6 +12,7 @@ import pytest
 
 from fsi_sph.__main__ import main
 from fsi_sph.config import load_config
+from fsi_sph.errors import SimulationError
 from fsi_sph.expression import Expression
 from fsi_sph.output import read_restart
 from fsi_sph.simulation import Simulation
@@ -333,3 +334,18 @@ def test_a_new_fluid_particle_takes_the_hierarchy_row_of_the_buffer_particle_it_
         before.update(x=f.x_all.copy(), nf=f.nf)
         sim.step()
     assert sum(checked) > 0  # particles did come in
+
+
+def test_the_energy_guard_watches_a_through_flow_without_gravity(channel):
+    """A channel starts at rest and has no gravity: nothing but the inflow can give it
+    energy. Its guard's bound is then the inflow's supply; it was infinite (the guard's
+    energy check off for the whole run: a Turek-Hron CFD3 run carried particles at 1e6 m/s
+    into its 'last good' snapshot)."""
+    sim = Simulation(load_config(channel, ["case.dx=0.01", "case.output_every=100"]))
+    assert not any(sim.cfg.case.gravity)
+    for _ in range(3):
+        sim.step()
+    sim.check()  # a sane flow passes
+    sim.fluid.body["v"][0] = [1e4, 0.0]
+    with pytest.raises(SimulationError, match="kinetic energy .* past the bound"):
+        sim.check()

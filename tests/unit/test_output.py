@@ -83,15 +83,16 @@ def test_failed_run_keeps_readable_file(case_file, tmp_path, monkeypatch, capsys
     """A NaN injected at the 6th sub-step: the CLI exits 1 with time, step, body, particle and
     quantity; the file is readable, says why, and keeps the snapshots written before."""
     calls = {"n": 0}
-    substep = ElasticBody.substep
+    substeps = ElasticBody.substeps
 
-    def bad_substep(self, dt):
-        substep(self, dt)
-        calls["n"] += 1
-        if calls["n"] == 6:
-            self.body["v"][7, 1] = np.nan
+    def bad_substeps(self, dt, n):
+        for _ in range(n):
+            substeps(self, dt, 1)
+            calls["n"] += 1
+            if calls["n"] == 6:
+                self.body["v"][7, 1] = np.nan
 
-    monkeypatch.setattr(ElasticBody, "substep", bad_substep)
+    monkeypatch.setattr(ElasticBody, "substeps", bad_substeps)
     out = tmp_path / "fail"
     rc = main(["run", str(case_file), "--out", str(out), "--no-progress",
                "--set", "case.probe_every=0.0"])
@@ -106,15 +107,16 @@ def test_failed_run_keeps_readable_file(case_file, tmp_path, monkeypatch, capsys
 
 def test_interrupted_run_keeps_readable_file(case_file, tmp_path, monkeypatch):
     calls = {"n": 0}
-    substep = ElasticBody.substep
+    substeps = ElasticBody.substeps
 
-    def interrupt(self, dt):
-        substep(self, dt)
-        calls["n"] += 1
-        if calls["n"] == 20:
-            raise KeyboardInterrupt
+    def interrupt(self, dt, n):
+        for _ in range(n):
+            substeps(self, dt, 1)
+            calls["n"] += 1
+            if calls["n"] == 20:
+                raise KeyboardInterrupt
 
-    monkeypatch.setattr(ElasticBody, "substep", interrupt)
+    monkeypatch.setattr(ElasticBody, "substeps", interrupt)
     sim = Simulation(load_config(case_file))
     with pytest.raises(KeyboardInterrupt):
         sim.run(out_dir=tmp_path / "int", progress=False)
