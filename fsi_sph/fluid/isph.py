@@ -153,14 +153,14 @@ class IncompressibleFluid(FluidParticles):
         keep, new_x, new_v, new_p, p_buffer = op.exchange(
             self.body["x"], self.body["v"], p_buffer, self.rho * self.dx * self.dx)
         if len(new_x) or not keep.all() or len(p_buffer) != self.n_walls - self.n_fixed:
-            old_rows = self.rows_before_exchange(keep, len(new_x))
+            old_rows = self.rows_before_exchange(keep)
             self.relayout(keep, new_x, new_v, new_p, p_buffer)
             self.resized()
             self.pressure.ppe.remap(old_rows)
         op.set_velocities(t, dt, self.body["x"], self.body["v"], self.kernel)
         self.buffer_rows()
 
-    def rows_before_exchange(self, keep, n_new):
+    def rows_before_exchange(self, keep):
         """For each stacked row after the exchange (``[fluid | walls | inflow | outflow |
         structures]``), its row before it: the kept fluid rows; each new fluid particle the
         row of the inflow buffer particle it was (the same place: that buffer particle

@@ -79,20 +79,28 @@ def test_round_trip(case_file, tmp_path):
             assert fname == "run.h5" and ds in f
 
 
-def test_failed_run_keeps_readable_file(case_file, tmp_path, monkeypatch, capsys):
-    """A NaN injected at the 6th sub-step: the CLI exits 1 with time, step, body, particle and
-    quantity; the file is readable, says why, and keeps the snapshots written before."""
+def fault_after_substep(monkeypatch, count, fault):
+    """The elastic bodies' sub-steps, with ``fault(body)`` called after the ``count``-th."""
     calls = {"n": 0}
     substeps = ElasticBody.substeps
 
-    def bad_substeps(self, dt, n):
+    def patched(self, dt, n):
         for _ in range(n):
             substeps(self, dt, 1)
             calls["n"] += 1
-            if calls["n"] == 6:
-                self.body["v"][7, 1] = np.nan
+            if calls["n"] == count:
+                fault(self)
 
-    monkeypatch.setattr(ElasticBody, "substeps", bad_substeps)
+    monkeypatch.setattr(ElasticBody, "substeps", patched)
+
+
+def test_failed_run_keeps_readable_file(case_file, tmp_path, monkeypatch, capsys):
+    """A NaN injected at the 6th sub-step: the CLI exits 1 with time, step, body, particle and
+    quantity; the file is readable, says why, and keeps the snapshots written before."""
+    def nan(body):
+        body.body["v"][7, 1] = np.nan
+
+    fault_after_substep(monkeypatch, 6, nan)
     out = tmp_path / "fail"
     rc = main(["run", str(case_file), "--out", str(out), "--no-progress",
                "--set", "case.probe_every=0.0"])
@@ -106,17 +114,10 @@ def test_failed_run_keeps_readable_file(case_file, tmp_path, monkeypatch, capsys
 
 
 def test_interrupted_run_keeps_readable_file(case_file, tmp_path, monkeypatch):
-    calls = {"n": 0}
-    substeps = ElasticBody.substeps
+    def interrupt(body):
+        raise KeyboardInterrupt
 
-    def interrupt(self, dt, n):
-        for _ in range(n):
-            substeps(self, dt, 1)
-            calls["n"] += 1
-            if calls["n"] == 20:
-                raise KeyboardInterrupt
-
-    monkeypatch.setattr(ElasticBody, "substeps", interrupt)
+    fault_after_substep(monkeypatch, 20, interrupt)
     sim = Simulation(load_config(case_file))
     with pytest.raises(KeyboardInterrupt):
         sim.run(out_dir=tmp_path / "int", progress=False)
