@@ -250,9 +250,25 @@ def _print_scene(cfg, est, sim):
     print(f"first stable time step: {dt:.3g} s"
           + (" (sub-steps: " + ", ".join(f"{n} {k}" for n, k in subs.items()) + ")"
              if subs and sim.fluid is not None else ""))
+    for name, body in sim.structures.items():
+        _print_frequencies(name, body)
     dt_flow, why = _flow_step(sim, dt)
     print(f"steps to t_end = {cfg.case.t_end:g} s: about {math.ceil(cfg.case.t_end / dt_flow)} "
           f"({why})")
+
+
+def _print_frequencies(name, body):
+    """An elastic body's lowest natural frequencies in vacuum (fsi_sph/solid/modes.py): the
+    time scales its sub-steps and the output interval must resolve."""
+    from fsi_sph.solid.modes import MAX_MODAL_PARTICLES, natural_frequencies
+
+    f = natural_frequencies(body) if hasattr(body, "rigid") else None
+    if f is not None:
+        print(f"solid.{name}: lowest natural frequencies in vacuum "
+              + ", ".join(f"{v:.4g}" for v in f) + " Hz (about the initial shape)")
+    elif hasattr(body, "rigid") and body.body.n > MAX_MODAL_PARTICLES:
+        print(f"solid.{name}: natural frequencies not computed ({body.body.n} particles, "
+              f"above {MAX_MODAL_PARTICLES})")
 
 
 def _ranks_text(sim):

@@ -1,0 +1,118 @@
+"""Natural modes of a TLSPH elastic body and its compliance over one fluid step.
+
+The pressure solve of a coupled scene needs the structure's response to the interface
+force within one fluid step (``coupling.structure_acceleration = "modal"``). Linearised about
+a configuration ``x``, the body is ``M u'' + K u = f`` with ``M`` its lumped masses and
+``K = -M d a_int / d x`` the stiffness of the TLSPH internal force [F 36-44] (taken here by
+central differences of the internal acceleration). Its modes ``K phi_k = w_k^2 M phi_k``,
+``phi_k^T M phi_k = 1``, answer a force ``f`` held over a step ``dt`` from rest with the mean
+velocity ``(x(dt) - x(0)) / dt = sum_k phi_k (phi_k . f) dt s_k / 2``,
+``s_k = sinc^2(w_k dt / 2) = (sin(w_k dt / 2) / (w_k dt / 2))^2`` (the undamped
+single-degree response, integrated twice). A free particle (``w = 0``) has ``s = 1`` and the
+mean velocity ``dt f / (2 m)``; a mode much stiffer than the step (``w dt >> 1``) does not
+move on average. So the step's compliance ``C(dt) = sum_k s_k phi_k phi_k^T`` lies between
+the per-particle ``M^-1`` of the implicit rows (every mode soft) and 0 (every mode stiff):
+the pressure solve sees the structure as the sub-cycle will move it. Not in PHYSICS.md
+(linear structural dynamics); tested against the plate's 2D finite-element period and
+``M^-1`` (tests/unit/test_modes.py). ``fsi-sph info`` prints each elastic body's lowest
+natural frequencies.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg
+
+from fsi_sph.solid import _kernels as K
+
+
+def internal_acceleration(body, x):
+    """Internal acceleration of ``body`` (an :class:`~fsi_sph.solid.tlsph.ElasticBody`) at
+    positions ``x`` and zero velocity: the stress term [F 44] and the hourglass control,
+    without gravity, external force or artificial viscosity (it acts on velocities only).
+    The body's own fields are left as they are."""
+    b = body.body
+    n = b.n
+    F = np.empty((n, 2, 2))
+    P = np.empty((n, 2, 2))
+    a = np.empty((n, 2))
+    K.deformation_stress(x, b["vol"], body.nbr_start, body.nbr_j, body.gi, body.model,
+                         body.lam, body.mu, F, P)
+    c_hg = body.cfg.hourglass.coefficient
+    K.accelerations(x, np.zeros((n, 2)), b["x0"], b["vol"], F, P, body.nbr_start, body.nbr_j,
+                    body.gi, body.gj, body.w, body.rho0, body.c0, body.h, 0.0, 0.0,
+                    0.0 if body.hg_conservative else c_hg, body.youngs, a)
+    if body.hg_conservative:
+        H = np.empty((n, 2, 2))
+        K.hourglass_moments(x, b["x0"], b["vol"], F, body.nbr_start, body.nbr_j, body.w, H)
+        K.hourglass_conservative(x, b["x0"], b["vol"], b["m"], F, H, body.G, body.nbr_start,
+                                 body.nbr_j, body.gj, body.w, c_hg * body.youngs, a)
+    return a
+
+
+def stiffness(body, x=None, step=1e-7):
+    """``K = -M d a_int / d x`` over the body's free degrees of freedom, symmetrised (the
+    TLSPH stress term derives from a strain energy; the hourglass term nearly so:
+    tests/unit/test_modes.py). Returns ``(K, dofs)`` (:func:`difference_stiffness`)."""
+    Kmat, dofs = difference_stiffness(body, x, step)
+    return 0.5 * (Kmat + Kmat.T), dofs
+
+
+def difference_stiffness(body, x=None, step=1e-7):
+    """``K = -M d a_int / d x`` over the body's free degrees of freedom (2 per free particle,
+    x then y), by central differences of :func:`internal_acceleration` with a step of
+    ``step`` times the particle spacing. Returns ``(K, dofs)``, ``dofs`` the flattened
+    indices ``2 i + d`` of the free degrees of freedom."""
+    b = body.body
+    x = np.array(b["x"] if x is None else x, dtype=np.float64)
+    dofs = np.flatnonzero(np.repeat(b["free"], 2))
+    eps = step * float(np.sqrt(b["vol"].mean()))
+    m = np.repeat(b["m"], 2)[dofs]
+    Kmat = np.empty((len(dofs), len(dofs)))
+    flat = x.reshape(-1)
+    for col, d in enumerate(dofs):
+        flat[d] += eps
+        up = internal_acceleration(body, x).reshape(-1)[dofs]
+        flat[d] -= 2.0 * eps
+        down = internal_acceleration(body, x).reshape(-1)[dofs]
+        flat[d] += eps
+        Kmat[:, col] = -m * (up - down) / (2.0 * eps)
+    return Kmat, dofs
+
+
+class Modes:
+    """The natural modes of an elastic body about one configuration (default: its current
+    one): ``omega`` (rad/s, ascending; 0 where ``K`` has no stiffness) and ``phi``
+    (``2 n x k``, mass-normalised, zero on the clamped particles)."""
+
+    def __init__(self, body, x=None):
+        Kmat, dofs = stiffness(body, x)
+        m = np.repeat(body.body["m"], 2)[dofs]
+        w2, vec = scipy.linalg.eigh(Kmat, np.diag(m))
+        self.omega = np.sqrt(np.maximum(w2, 0.0))
+        self.phi = np.zeros((2 * body.body.n, len(dofs)))
+        self.phi[dofs] = vec
+
+    def weights(self, dt):
+        """``s_k = sinc^2(w_k dt / 2)``: each mode's share of the free-particle response over
+        a step ``dt`` (module docstring)."""
+        return np.sinc(self.omega * dt / (2.0 * np.pi)) ** 2
+
+    def compliance(self, dt):
+        """``C(dt) = sum_k s_k phi_k phi_k^T`` (``2 n x 2 n``; ``M^-1`` on the free degrees
+        of freedom as ``dt -> 0``)."""
+        return (self.phi * self.weights(dt)) @ self.phi.T
+
+
+MAX_MODAL_PARTICLES = 1500  # above: minutes of difference quotients and a dense eigensolve
+
+
+def natural_frequencies(body, count=3):
+    """The ``count`` lowest natural frequencies (Hz) of an elastic body in vacuum about its
+    initial configuration, or None for a rigid body, one without a clamp (its lowest modes
+    are rigid-body motions at 0 Hz) or one of more than ``MAX_MODAL_PARTICLES`` particles."""
+    b = body.body
+    if body.rigid or b["free"].all() or b.n > MAX_MODAL_PARTICLES:
+        return None
+    return Modes(body).omega[:count] / (2.0 * np.pi)
+
