@@ -243,7 +243,10 @@ class BoundaryRows:
         term the fluid felt from the row [F 11-12]: the Morris pair sum of
         :func:`~fsi_sph.fluid._kernels.predict_velocity` gathered on the boundary row, with
         the row's velocity as the viscous term saw it (the no-slip mirror of a through-flow),
-        times the row's mass ``rho V_w`` (equal volumes: action = reaction pair by pair)."""
+        times the row's mass ``rho V_w`` (equal volumes: action = reaction pair by pair).
+        The pair term takes the pressures relative to a confined flow's level ``p_gauge``
+        (:meth:`~fsi_sph.fluid.pressure_solve.PressureSolve.interface_gauge`), as the
+        coupling does."""
         ps = self.ps
         nf, nb = ps.nf, ps.nw
         ps.sync()
@@ -252,8 +255,9 @@ class BoundaryRows:
         weights = (self.rows.interface_weights() if ps.ns
                    else np.tile(np.eye(2), (nf, 1, 1)))
         out = np.zeros((nb, 2))
-        pair_pressure_forces(xb, ps.p_all[nf:nf + nb], ps.vol_all[nf:nf + nb], xf,
-                             ps.p_all[:nf], ps.vol_all[:nf], start, j, ps.h, ps.kernel,
+        p = ps.p_all - ps.p_gauge if ps.p_gauge else ps.p_all  # (PressureSolve.interface_gauge)
+        pair_pressure_forces(xb, p[nf:nf + nb], ps.vol_all[nf:nf + nb], xf,
+                             p[:nf], ps.vol_all[:nf], start, j, ps.h, ps.kernel,
                              ps.grad_scale, weights, False, out)
         u_b = self.no_slip_velocity() if ps.open is not None else ps.v_b
         x = np.vstack([xb, xf])  # boundary rows first, their fluid sources after them
