@@ -235,7 +235,7 @@ class BoundaryRows:
         u_w[ps.n_fixed:ps.n_walls] = ps.v_b[ps.n_fixed:ps.n_walls]
         return u_w
 
-    def fluid_forces(self):
+    def fluid_forces(self, level=None):
         """Force of the fluid on every boundary row (N/m; walls, buffers, structures), from
         the pressures of the last solve and the velocities of the step: the pressure pair
         term of the interface [F 46-47] (:func:`~fsi_sph.sph.interface.pair_pressure_forces`,
@@ -244,9 +244,8 @@ class BoundaryRows:
         :func:`~fsi_sph.fluid._kernels.predict_velocity` gathered on the boundary row, with
         the row's velocity as the viscous term saw it (the no-slip mirror of a through-flow),
         times the row's mass ``rho V_w`` (equal volumes: action = reaction pair by pair).
-        The pair term takes the pressures relative to a confined flow's level ``p_gauge``
-        (:meth:`~fsi_sph.fluid.pressure_solve.PressureSolve.interface_gauge`), as the
-        coupling does."""
+        The pair term takes the pressures relative to ``level`` (default: a confined flow's
+        ``p_gauge``, :mod:`fsi_sph.fluid.gauge`, as the coupling does; 0 elsewhere)."""
         ps = self.ps
         nf, nb = ps.nf, ps.nw
         ps.sync()
@@ -255,7 +254,8 @@ class BoundaryRows:
         weights = (self.rows.interface_weights() if ps.ns
                    else np.tile(np.eye(2), (nf, 1, 1)))
         out = np.zeros((nb, 2))
-        p = ps.p_all - ps.p_gauge if ps.p_gauge else ps.p_all  # (PressureSolve.interface_gauge)
+        level = ps.p_gauge if level is None else level
+        p = ps.p_all - level if level else ps.p_all
         pair_pressure_forces(xb, p[nf:nf + nb], ps.vol_all[nf:nf + nb], xf,
                              p[:nf], ps.vol_all[:nf], start, j, ps.h, ps.kernel,
                              ps.grad_scale, weights, False, out)

@@ -13,8 +13,9 @@ flag as a wall runs; with the level taken out it runs 3 s (docs/numerics/couplin
 pressure does no net work, so the pair terms take the pressures relative to the level
 ``p_gauge = m . p``: the mean pressure of the fluid rows beside a structure, of the same
 solve. The implicit rows of the solve see the force the structure then receives through a
-rank-one term (and the free bodies' rigid rows through their own ``G``). A free surface fixes
-the level (p = 0 there, and a gate wetted on one side feels the whole pressure): no gauge.
+rank-one term (and the free bodies' rigid rows through their own ``G``); a force probe takes
+the level beside its own body (:func:`level_beside`). A free surface fixes the level (p = 0
+there, and a gate wetted on one side feels the whole pressure): no gauge.
 Not in PHYSICS.md; tests/unit/test_interface_gauge.py.
 """
 
@@ -68,3 +69,15 @@ def gauged_terms(A, ps, m, rigid=None):
     G = rigid.G()
     G = G - np.outer(G.sum(axis=1), m)
     return LevelTerms(np.hstack([rigid.U, u]), np.vstack([G, m[None, :]]))
+
+
+def level_beside(ps, boundary_rows):
+    """The mean pressure of the fluid rows beside the boundary rows ``boundary_rows`` (a
+    body's particles after the fluid's; their fluid neighbour lists ``wf``): the level a
+    force probe on a closed body takes the pressures relative to in a confined flow (0
+    without fluid neighbours)."""
+    start, j = ps.wf_start, ps.wf_j
+    nb = np.concatenate([j[start[b]:start[b + 1]] for b in boundary_rows] or [j[:0]])
+    nb = np.unique(nb[nb < ps.nf])
+    return float(ps.p_all[nb].mean()) if len(nb) else 0.0
+

@@ -97,3 +97,20 @@ def test_a_held_flag_in_the_channel_stays_at_rest():
     v = sim.fluid.body["v"]
     assert sim.t > 0.3
     assert np.sqrt(np.einsum("ij,ij->i", v, v)).max() < 0.5
+
+
+def test_force_probe_of_a_confined_flow_does_not_see_a_uniform_pressure():
+    """The CFD2 body force (cylinder and flag as walls) relative to the level beside the
+    body: a uniform shift of the pressure leaves it as it was; taken with the absolute
+    pressure (as in a flow with a free surface) the shift moves it."""
+    sim = Simulation(load_config("cases/turek_hron_cfd2.toml", COARSE))
+    for _ in range(3):
+        sim.step()
+    fl = sim.fluid
+    probe = next(p for p in sim.probes if p.name == "body_force")
+    before = np.array(probe.sample())
+    fl.p_all += 5000.0
+    fl.body["p"] += 5000.0  # (the probe syncs the stacked fluid pressure from the body's)
+    np.testing.assert_allclose(probe.sample(), before, atol=1e-9 * np.abs(before).max())
+    fl.confined = False
+    assert np.abs(np.array(probe.sample()) - before).max() > 1.0  # N/m
