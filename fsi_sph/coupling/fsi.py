@@ -175,10 +175,8 @@ class FsiCoupling:
         k0 = fl.wf_start[fl.n_walls]
         sf = (fl.wf_start[fl.n_walls:] - k0, fl.wf_j[k0:])
         fs = transpose_csr(*sf, fl.nf)
-        # the waterline rows weight their pair terms by L_f (fluid.waterline_rows); the
-        # pressures relative to a confined flow's level (PressureSolve.interface_gauge)
-        p = fl.p_all - fl.p_gauge if fl.p_gauge else fl.p_all
-        interface_forces(x_s, p[nb0:], fl.vol_all[nb0:], x_f, p[:fl.nf],
+        # the waterline rows weight their pair terms by L_f (fluid.waterline_rows)
+        interface_forces(x_s, fl.p_all[nb0:], fl.vol_all[nb0:], x_f, fl.p_all[:fl.nf],
                          fl.vol_all[:fl.nf], *sf, *fs, fl.h, fl.kernel, fl.grad_scale,
                          self.on_structure, self.on_fluid, fl.interface_weights())
         return self.on_fluid

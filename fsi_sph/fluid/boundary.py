@@ -244,8 +244,8 @@ class BoundaryRows:
         :func:`~fsi_sph.fluid._kernels.predict_velocity` gathered on the boundary row, with
         the row's velocity as the viscous term saw it (the no-slip mirror of a through-flow),
         times the row's mass ``rho V_w`` (equal volumes: action = reaction pair by pair).
-        The pair term takes the pressures relative to ``level`` (default: a confined flow's
-        ``p_gauge``, :mod:`fsi_sph.fluid.gauge`, as the coupling does; 0 elsewhere)."""
+        The pair term takes the pressures relative to ``level`` (Pa; a force probe of a
+        confined flow passes the level beside its body, :mod:`fsi_sph.fluid.gauge`)."""
         ps = self.ps
         nf, nb = ps.nf, ps.nw
         ps.sync()
@@ -254,7 +254,6 @@ class BoundaryRows:
         weights = (self.rows.interface_weights() if ps.ns
                    else np.tile(np.eye(2), (nf, 1, 1)))
         out = np.zeros((nb, 2))
-        level = ps.p_gauge if level is None else level
         p = ps.p_all - level if level else ps.p_all
         pair_pressure_forces(xb, p[nf:nf + nb], ps.vol_all[nf:nf + nb], xf,
                              p[:nf], ps.vol_all[:nf], start, j, ps.h, ps.kernel,

@@ -105,7 +105,7 @@ class Motion:
         if self.pressure.incremental_step:
             self.gradient.apply(self.increments.phi_all, ps.grad_p, floor="increment")
         else:
-            self.gradient.apply(ps.p_all, ps.grad_p, level=ps.p_gauge)
+            self.gradient.apply(ps.p_all, ps.grad_p)
         v = b["v"]
         np.multiply(ps.grad_p, -dt / ps.rho, out=v)
         v += ps.v_star

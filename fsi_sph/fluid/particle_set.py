@@ -111,9 +111,6 @@ class FluidParticles:
         # a pressure has been solved for (p_all holds it): the incremental projection's p^n
         # and the mirror walls' lagged gradient exist from then on
         self.p_known = False
-        # the pressure level the interface's pair terms are taken relative to (a confined
-        # flow with coupled structures, PressureSolve.interface_gauge; 0 otherwise)
-        self.p_gauge = 0.0
         # boundary velocity u_b and body force g - a_b of the boundary rows (Adami)
         self.v_b = np.zeros((self.nw, 2))
         self.g_b = np.tile(self.gravity, (self.nw, 1))

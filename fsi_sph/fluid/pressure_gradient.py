@@ -32,7 +32,7 @@ class PressureGradient:
         self.lagged = out
         return out
 
-    def apply(self, p, out, floor="pressure", level=0.0):
+    def apply(self, p, out, floor="pressure"):
         """The correction step's gradient of the stacked field ``p`` at the fluid rows
         (``ps.L`` current): conservative [F 10] or corrected [F 7, F 13], over the fluid,
         the walls and the periodic images (the structures are left to the coupling).
@@ -40,9 +40,7 @@ class PressureGradient:
         (:func:`_kernels.wall_floor`): ``floor`` = "pressure" (a pressure: hydrostatic
         carry), "increment" (an increment of it: none) or None (no floor: the density
         relaxation's displacement pressure). The floor acts on the rows that are not
-        interior (free-surface and near-surface class, :meth:`RowRoles.floor_rows`).
-        ``level``: the pressure level the pair form of the rows beside a structure takes
-        ``p`` relative to (a confined flow's ``p_gauge``, :mod:`fsi_sph.fluid.gauge`)."""
+        interior (free-surface and near-surface class, :meth:`RowRoles.floor_rows`)."""
         ps = self.ps
         jmax = ps.nf + ps.nw - ps.ns
         rg = self.rows.no_rg
@@ -56,9 +54,9 @@ class PressureGradient:
                     rg[ps.nf:ps.nf + ps.n_walls] = (
                         ps.rho * self.boundary.wall_body_force()[:ps.n_walls])
         rows = self.rows.floor_rows() if floored is not self.rows.no_rows else self.rows.no_rows
-        return self.with_rows(p, jmax, floored, rows, rg, out, level)
+        return self.with_rows(p, jmax, floored, rows, rg, out)
 
-    def with_rows(self, p, jmax, floored, floor_row, rg, out, level=0.0):
+    def with_rows(self, p, jmax, floored, floor_row, rg, out):
         ps = self.ps
         form = ps.cfg.pressure_gradient
         if form == "conservative":
@@ -75,8 +73,6 @@ class PressureGradient:
             # waterline rows keep the corrected form (interface_weights)
             rows = self.rows.structure_rows(jmax) & ~self.rows.waterline_rows()
             cons = np.empty_like(out)
-            if level:  # relative to a confined flow's pressure level (fluid/gauge.py)
-                p = p - level
             K.pressure_gradient(ps.x_all, p, ps.vol_all, ps.ff_start, ps.ff_j, ps.nf,
                                 ps.h, ps.kernel, ps.grad_scale, jmax, floored, floor_row,
                                 rg, cons)

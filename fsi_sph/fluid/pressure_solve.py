@@ -8,7 +8,6 @@ from __future__ import annotations
 import numpy as np
 
 from fsi_sph.fluid import _kernels as K
-from fsi_sph.fluid import gauge
 from fsi_sph.fluid.increments import PressureIncrements
 from fsi_sph.fluid.lattice import DIVR_FULL
 from fsi_sph.fluid.ppe import PPEStats, PressureSolver, assemble
@@ -123,12 +122,7 @@ class PressureSolve:
                 A, rhs = ps.periodic.constrain(A, rhs, ps.diag_ref)
             t1 = time.perf_counter()
             low_rank = self.boundary.rigid_terms() if self.boundary.rigid is not None else None
-            # a confined flow's pressure level out of the interface's pair terms (gauge.py)
-            level = gauge.level_weights(ps, self.rows)
-            if level is not None:
-                low_rank = gauge.gauged_terms(A, ps, level, low_rank)
             p, stats = self.ppe.solve(A, rhs, ps.p_all, ps.nf, low_rank)
-            ps.p_gauge = 0.0 if level is None else float(level @ p)
             stats.assemble_time = t1 - t0
             if self.incremental:  # the initial pressure p^0 (initial_pressure)
                 self.increments.phi_all = np.zeros(len(p))

@@ -263,7 +263,7 @@ class ViscousStep:
         ps = self.ps
         nf = ps.nf
         gp = np.zeros((len(ps.x_all), 2))
-        self.gradient.apply(ps.p_all, gp[:nf], level=ps.p_gauge)
+        self.gradient.apply(ps.p_all, gp[:nf])
         gp[:nf] /= ps.rho
         fold = col_of >= 0
         gp[fold] = gp[:nf][col_of[fold]]
