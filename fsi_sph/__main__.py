@@ -261,12 +261,15 @@ def _print_frequencies(name, body):
     """An elastic body's lowest natural frequencies in vacuum (fsi_sph/solid/modes.py): the
     time scales its sub-steps and the output interval must resolve."""
     from fsi_sph.solid.modes import MAX_MODAL_PARTICLES, natural_frequencies
+    from fsi_sph.solid.tlsph import ElasticBody
 
-    f = natural_frequencies(body) if hasattr(body, "rigid") else None
+    if not isinstance(body, ElasticBody):  # (a soil body)
+        return
+    f = natural_frequencies(body)
     if f is not None:
         print(f"solid.{name}: lowest natural frequencies in vacuum "
               + ", ".join(f"{v:.4g}" for v in f) + " Hz (about the initial shape)")
-    elif hasattr(body, "rigid") and body.body.n > MAX_MODAL_PARTICLES:
+    elif body.body.n > MAX_MODAL_PARTICLES:
         print(f"solid.{name}: natural frequencies not computed ({body.body.n} particles, "
               f"above {MAX_MODAL_PARTICLES})")
 

@@ -21,13 +21,16 @@ from __future__ import annotations
 
 import numpy as np
 
+from fsi_sph.fluid.boundary import rows_kept
+
 
 def level_beside(ps, boundary_rows):
     """The mean pressure of the fluid rows beside the boundary rows ``boundary_rows`` (a
     body's particles after the fluid's; their fluid neighbour lists ``wf``): the level a
     force probe on a closed body takes the pressures relative to in a confined flow (0
     without fluid neighbours)."""
-    start, j = ps.wf_start, ps.wf_j
-    nb = np.concatenate([j[start[b]:start[b + 1]] for b in boundary_rows] or [j[:0]])
+    keep = np.zeros(ps.nw, dtype=bool)
+    keep[boundary_rows] = True
+    _, nb = rows_kept(ps.wf_start[:ps.nw + 1], ps.wf_j[:ps.wf_start[ps.nw]], keep)
     nb = np.unique(nb[nb < ps.nf])
     return float(ps.p_all[nb].mean()) if len(nb) else 0.0

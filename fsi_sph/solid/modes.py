@@ -1,7 +1,8 @@
 """Natural modes of a TLSPH elastic body and its compliance over one fluid step.
 
-The pressure solve of a coupled scene needs the structure's response to the interface
-force within one fluid step (``coupling.structure_acceleration = "modal"``). Linearised about
+How a structure answers a force held over one fluid step (the sub-cycle) decides how well
+the implicit rows of the pressure solve (docs/numerics/coupling.md) state its inertia; this
+module measures it (docs/numerics/solid.md § Natural modes). Linearised about
 a configuration ``x``, the body is ``M u'' + K u = f`` with ``M`` its lumped masses and
 ``K = -M d a_int / d x`` the stiffness of the TLSPH internal force [F 36-44] (taken here by
 central differences of the internal acceleration). Its modes ``K phi_k = w_k^2 M phi_k``,
@@ -11,8 +12,8 @@ velocity ``(x(dt) - x(0)) / dt = sum_k phi_k (phi_k . f) dt s_k / 2``,
 single-degree response, integrated twice). A free particle (``w = 0``) has ``s = 1`` and the
 mean velocity ``dt f / (2 m)``; a mode much stiffer than the step (``w dt >> 1``) does not
 move on average. So the step's compliance ``C(dt) = sum_k s_k phi_k phi_k^T`` lies between
-the per-particle ``M^-1`` of the implicit rows (every mode soft) and 0 (every mode stiff):
-the pressure solve sees the structure as the sub-cycle will move it. Not in PHYSICS.md
+the per-particle ``M^-1`` of the implicit rows (every mode soft) and 0 (every mode stiff).
+Not in PHYSICS.md
 (linear structural dynamics); tested against the plate's 2D finite-element period and
 ``M^-1`` (tests/unit/test_modes.py). ``fsi-sph info`` prints each elastic body's lowest
 natural frequencies.
@@ -22,32 +23,6 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.linalg
-
-from fsi_sph.solid import _kernels as K
-
-
-def internal_acceleration(body, x):
-    """Internal acceleration of ``body`` (an :class:`~fsi_sph.solid.tlsph.ElasticBody`) at
-    positions ``x`` and zero velocity: the stress term [F 44] and the hourglass control,
-    without gravity, external force or artificial viscosity (it acts on velocities only).
-    The body's own fields are left as they are."""
-    b = body.body
-    n = b.n
-    F = np.empty((n, 2, 2))
-    P = np.empty((n, 2, 2))
-    a = np.empty((n, 2))
-    K.deformation_stress(x, b["vol"], body.nbr_start, body.nbr_j, body.gi, body.model,
-                         body.lam, body.mu, F, P)
-    c_hg = body.cfg.hourglass.coefficient
-    K.accelerations(x, np.zeros((n, 2)), b["x0"], b["vol"], F, P, body.nbr_start, body.nbr_j,
-                    body.gi, body.gj, body.w, body.rho0, body.c0, body.h, 0.0, 0.0,
-                    0.0 if body.hg_conservative else c_hg, body.youngs, a)
-    if body.hg_conservative:
-        H = np.empty((n, 2, 2))
-        K.hourglass_moments(x, b["x0"], b["vol"], F, body.nbr_start, body.nbr_j, body.w, H)
-        K.hourglass_conservative(x, b["x0"], b["vol"], b["m"], F, H, body.G, body.nbr_start,
-                                 body.nbr_j, body.gj, body.w, c_hg * body.youngs, a)
-    return a
 
 
 def stiffness(body, x=None, step=1e-7):
@@ -60,8 +35,9 @@ def stiffness(body, x=None, step=1e-7):
 
 def difference_stiffness(body, x=None, step=1e-7):
     """``K = -M d a_int / d x`` over the body's free degrees of freedom (2 per free particle,
-    x then y), by central differences of :func:`internal_acceleration` with a step of
-    ``step`` times the particle spacing. Returns ``(K, dofs)``, ``dofs`` the flattened
+    x then y), by central differences of the body's internal acceleration
+    (:meth:`~fsi_sph.solid.tlsph.ElasticBody.internal_acceleration`) with a step of ``step``
+    times the particle spacing. Returns ``(K, dofs)``, ``dofs`` the flattened
     indices ``2 i + d`` of the free degrees of freedom."""
     b = body.body
     x = np.array(b["x"] if x is None else x, dtype=np.float64)
@@ -72,9 +48,9 @@ def difference_stiffness(body, x=None, step=1e-7):
     flat = x.reshape(-1)
     for col, d in enumerate(dofs):
         flat[d] += eps
-        up = internal_acceleration(body, x).reshape(-1)[dofs]
+        up = body.internal_acceleration(x).reshape(-1)[dofs]
         flat[d] -= 2.0 * eps
-        down = internal_acceleration(body, x).reshape(-1)[dofs]
+        down = body.internal_acceleration(x).reshape(-1)[dofs]
         flat[d] += eps
         Kmat[:, col] = -m * (up - down) / (2.0 * eps)
     return Kmat, dofs
@@ -115,4 +91,3 @@ def natural_frequencies(body, count=3):
     if body.rigid or b["free"].all() or b.n > MAX_MODAL_PARTICLES:
         return None
     return Modes(body).omega[:count] / (2.0 * np.pi)
-

@@ -118,6 +118,7 @@ class ElasticBody:
         K.corrected_gradients(self.nbr_start, self.nbr_j, gw, self.L, self.gi, self.gj)
         hg = self.cfg.hourglass
         self.hg_conservative = hg.model == "conservative" and hg.coefficient > 0.0
+        self.H = None  # the conservative control's moments (work space of _internal)
         if self.hg_conservative:
             # G_a = sum_b V_b L_a grad W_ab (constant), H_a (updated every step)
             rows = np.repeat(np.arange(b.n), np.diff(self.nbr_start))
@@ -155,23 +156,41 @@ class ElasticBody:
     def update_stress(self):
         """F [F 36] and P [F 37-40] from the current positions."""
         b = self.body
-        K.deformation_stress(b["x"], b["vol"], self.nbr_start, self.nbr_j, self.gi, self.model,
-                             self.lam, self.mu, b["F"], b["P"])
+        self._stress(b["x"], b["F"], b["P"])
+
+    def _stress(self, x, F, P):
+        K.deformation_stress(x, self.body["vol"], self.nbr_start, self.nbr_j, self.gi,
+                             self.model, self.lam, self.mu, F, P)
 
     def _accelerations(self):
         b = self.body
         av = self.cfg.artificial_viscosity
+        self._internal(b["x"], b["v"], b["F"], b["P"], av.alpha, av.beta, self.H, b["a"])
+
+    def _internal(self, x, v, F, P, av_alpha, av_beta, H, out):
+        """Internal acceleration at ``x, v`` with ``F, P`` of ``x``: stress [F 44],
+        artificial viscosity [F 41-43] and hourglass control (``H``: the conservative
+        control's moments, work space)."""
+        b = self.body
         c_hg = self.cfg.hourglass.coefficient
-        K.accelerations(b["x"], b["v"], b["x0"], b["vol"], b["F"], b["P"], self.nbr_start,
-                        self.nbr_j, self.gi, self.gj, self.w, self.rho0, self.c0, self.h,
-                        av.alpha, av.beta, 0.0 if self.hg_conservative else c_hg, self.youngs,
-                        b["a"])
+        K.accelerations(x, v, b["x0"], b["vol"], F, P, self.nbr_start, self.nbr_j, self.gi,
+                        self.gj, self.w, self.rho0, self.c0, self.h, av_alpha, av_beta,
+                        0.0 if self.hg_conservative else c_hg, self.youngs, out)
         if self.hg_conservative:
-            K.hourglass_moments(b["x"], b["x0"], b["vol"], b["F"], self.nbr_start, self.nbr_j,
-                                self.w, self.H)
-            K.hourglass_conservative(b["x"], b["x0"], b["vol"], b["m"], b["F"], self.H, self.G,
-                                     self.nbr_start, self.nbr_j, self.gj, self.w,
-                                     c_hg * self.youngs, b["a"])
+            K.hourglass_moments(x, b["x0"], b["vol"], F, self.nbr_start, self.nbr_j, self.w, H)
+            K.hourglass_conservative(x, b["x0"], b["vol"], b["m"], F, H, self.G, self.nbr_start,
+                                     self.nbr_j, self.gj, self.w, c_hg * self.youngs, out)
+
+    def internal_acceleration(self, x):
+        """Internal acceleration at positions ``x`` and zero velocity (stress and hourglass
+        control; no gravity, external force or artificial viscosity, which acts on
+        velocities only), leaving the body's fields as they are (fsi_sph/solid/modes.py)."""
+        n = self.body.n
+        F, P, H = np.empty((n, 2, 2)), np.empty((n, 2, 2)), np.empty((n, 2, 2))
+        out = np.empty((n, 2))
+        self._stress(x, F, P)
+        self._internal(x, np.zeros((n, 2)), F, P, 0.0, 0.0, H, out)
+        return out
 
     def substep(self, dt):
         """One velocity-Verlet step: kick (dt/2), drift, stress, forces, kick (dt/2).

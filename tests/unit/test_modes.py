@@ -94,3 +94,23 @@ def test_no_frequencies_for_a_body_without_a_clamp():
     sim = Simulation(load_config("cases/oscillating_plate.toml", ["case.dx=0.005",
                                                                    "solid.plate.clamp=[]"]))
     assert natural_frequencies(sim.structures["plate"]) is None
+
+
+@pytest.mark.parametrize("hourglass", ["ganzenmueller", "conservative"])
+def test_internal_acceleration_is_the_step_acceleration_at_rest(rng, hourglass):
+    """``ElasticBody.internal_acceleration(x)`` is the acceleration the step computes at ``x``
+    with the body at rest (the same kernels), and leaves the body's fields alone."""
+    sim = Simulation(load_config("cases/oscillating_plate.toml", [
+        "case.dx=0.005", f'solid.plate.hourglass={{model="{hourglass}",coefficient=0.1}}']))
+    body = sim.structures["plate"]
+    b = body.body
+    x = b["x"] + 1e-4 * rng.normal(size=b["x"].shape)
+    a_before = b["a"].copy()
+    a = body.internal_acceleration(x)
+    np.testing.assert_array_equal(b["a"], a_before)
+    b["x"][:] = x
+    b["v"][:] = 0.0
+    body.update_stress()
+    body._accelerations()
+    np.testing.assert_array_equal(a, b["a"])
+    assert np.abs(a).max() > 1.0  # the perturbation is felt
