@@ -55,12 +55,14 @@ class Probe(StrictModel):
     name: Name
     kind: Literal["point_displacement", "energy", "pressure", "surge_front",
                   "fluid_stats", "force"] = Field(
-        description="point_displacement: the particle nearest to `at` in the reference "
-        "configuration; energy: kinetic and strain energy of a body; pressure: fluid pressure "
-        "at `at` (Shepard interpolation over fluid and wall particles); surge_front: largest "
-        "x of the fluid particles with at least 3 fluid neighbours; fluid_stats: max speed and "
-        "kinetic energy of the fluid; force: the fluid's force (fx, fy; N/m) on `body` (the "
-        "fixed `walls` or a coupled solid), on its particles inside `region` if given")
+        description="point_displacement: the material point at `at` in the reference "
+        "configuration (the nearest particle, carried to the point by its deformation "
+        "gradient on an elastic body); energy: kinetic and strain energy of a body; pressure: "
+        "fluid pressure at `at` (Shepard interpolation over fluid and wall particles); "
+        "surge_front: largest x of the fluid particles with at least 3 fluid neighbours; "
+        "fluid_stats: max speed and kinetic energy of the fluid; force: the fluid's force "
+        "(fx, fy; N/m) on `body` (the fixed `walls` or a coupled solid), on its particles "
+        "inside `region` if given")
     body: Name
     at: Vec2 | None = Field(None, description="position (m), for point_displacement and pressure")
     reference: list[ProbeReference] = Field([], description="reference curves drawn over "
