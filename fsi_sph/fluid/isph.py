@@ -355,6 +355,8 @@ def warm_up(kind):
     rg = np.zeros((n, 2))
     K.pressure_gradient(x, p, vol, start, j, n, h, kind, 1.0, n, none, none, rg, gp)
     K.corrected_pressure_gradient(x, p, vol, L, start, j, n, h, kind, n, none, none, rg, gp)
+    K.structure_row_pressure_gradient(x, p, vol, start, j, n, h, kind, 1.0, n, none, none, rg,
+                                      ~none, gp)
     dr = np.zeros((n, 2))
     for model in (0, 1, 2):
         K.shift_vectors(x, v, vol, start, j, n, h, kind, model, 1.0, 0.0, 0.1, cls, nrm, dr)

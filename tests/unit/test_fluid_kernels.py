@@ -559,3 +559,45 @@ def test_fluid_neighbour_counts_match_a_numpy_count(rng):
     want = [int(np.sum(fluid_of[j[start[i]:start[i + 1]]] >= 0)) for i in range(4)]
     assert got.tolist() == want
     assert got[1] == 0  # a row without neighbours
+
+
+def test_structure_rows_take_the_difference_form_with_the_coupling_pair_terms(perturbed):
+    """Rows beside a structure (the last rows, j >= jmax, are its particles): the kernel plus
+    the coupling's pair terms V_s (p_i + p_s) grad W_is [F 46-47] is the difference form
+    sum_j V_j (p_j - p_i) grad W_ij over the whole support (oracle); a uniform pressure then
+    pushes no row, where the pair form [F 10] pushed the rows of an irregular support; the
+    other rows are left as they were."""
+    rng = np.random.default_rng(3)
+    x = perturbed
+    n = len(x)
+    nf, jmax = 90, 100  # rows 90-99 walls, 100-119 a structure
+    vol = rng.uniform(0.8, 1.2, n)
+    s, j = nbrs(x, nf)
+    rows = np.zeros(nf, bool)
+    rows[::2] = True
+    none, floor = np.zeros(n, bool), np.ones(nf, bool)
+
+    def with_pairs(p):
+        g = np.full((nf, 2), 7.0)
+        K.structure_row_pressure_gradient(x, p, vol, s, j, nf, H, KIND, 1.01, jmax, none,
+                                          floor, np.zeros((n, 2)), rows, g)
+        pairs = np.zeros((nf, 2))
+        for i, jj, d, r in ref.pairs(x, H, nf):
+            if jj >= jmax:
+                pairs[i] += 1.01 * vol[jj] * (p[i] + p[jj]) * ref.grad_w(d, r, H)
+        return g, g + pairs
+
+    p = rng.normal(size=n)
+    g, total = with_pairs(p)
+    want = np.zeros((nf, 2))
+    for i, jj, d, r in ref.pairs(x, H, nf):
+        want[i] += 1.01 * vol[jj] * (p[jj] - p[i]) * ref.grad_w(d, r, H)
+    assert_allclose(total[rows], want[rows], rtol=1e-12, atol=1e-13)
+    assert (g[~rows] == 7.0).all()
+    near = np.array([any(jj >= jmax for i2, jj, _, _ in ref.pairs(x, H, nf) if i2 == i)
+                     for i in range(nf)])
+    assert (rows & near).any()
+    _, level = with_pairs(np.full(n, 5e3))
+    assert np.abs(level[rows]).max() < 1e-9
+    pair_form = ref.conservative_gradient(x, np.full(n, 5e3), vol, H, nf, 1.01)
+    assert np.abs(pair_form[rows & near]).max() > 1.0

@@ -45,6 +45,7 @@ from fsi_sph.fluid._kernels.pressure import (
     ppe_fill,
     ppe_row_lengths,
     pressure_gradient,
+    structure_row_pressure_gradient,
     wall_floor,
 )
 from fsi_sph.fluid._kernels.surface import (
@@ -87,6 +88,7 @@ __all__ = [
     "shepard_at",
     "shift_vectors",
     "smagorinsky",
+    "structure_row_pressure_gradient",
     "surface_classes",
     "umbrella_scan",
     "velocity_divergence",
