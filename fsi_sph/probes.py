@@ -14,7 +14,8 @@ class PointDisplacement:
 
     The particle nearest to ``at``; for a body with a deformation gradient (the TLSPH
     solid) its position carried from the particle to the point by it,
-    ``x_A = x_p + F_p (X_A - X_p)`` [F 36] (exact for an affine motion), averaged over every
+    ``x_A = x_p + F_p (X_A - X_p)`` [F 36] (exact for an affine motion; a rigid body, whose F
+    stays I, by its rotation :func:`rotation`), averaged over every
     particle at the nearest distance (to 1e-9 of it). Where ``at`` is a particle's reference
     position that is the particle itself; where it is not (Turek & Hron's point A, the
     centre of the flag's end, lies between two particles half a spacing off), the nearest
@@ -30,6 +31,7 @@ class PointDisplacement:
         d = np.hypot(x0[:, 0] - at[0], x0[:, 1] - at[1])
         dmin = float(d.min())
         self.carried = "F" in body.body and dmin > 0.0
+        self.rigid = bool(getattr(body, "rigid", False))   # F stays I: turn by the body
         if self.carried:
             self.indices = np.flatnonzero(d <= dmin + 1e-9 * dmin)
         else:
@@ -44,8 +46,18 @@ class PointDisplacement:
             u = (x - (self.at - self.offset)).mean(axis=0)
             xa = x.mean(axis=0)
             return [u[0], u[1], xa[0], xa[1]]
-        xa = (x + np.einsum("pij,pj->pi", b["F"][self.indices], self.offset)).mean(axis=0)
+        F = rotation(b["x"], b["x0"])[None] if self.rigid else b["F"][self.indices]
+        xa = (x + np.einsum("pij,pj->pi", F, self.offset)).mean(axis=0)
         return [xa[0] - self.at[0], xa[1] - self.at[1], xa[0], xa[1]]
+
+
+def rotation(x, x0):
+    """The rotation that best maps the reference positions ``x0`` onto ``x`` about their
+    centroids (the rotation of the polar decomposition of ``sum (x - xc) (x0 - x0c)^T``,
+    exact for a rigid motion; not in PHYSICS.md)."""
+    a = (x - x.mean(axis=0)).T @ (x0 - x0.mean(axis=0))
+    t = np.arctan2(a[1, 0] - a[0, 1], a[0, 0] + a[1, 1])
+    return np.array([[np.cos(t), -np.sin(t)], [np.sin(t), np.cos(t)]])
 
 
 class Energy:

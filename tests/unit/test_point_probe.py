@@ -64,3 +64,18 @@ def test_a_body_without_deformation_gradient_gives_its_nearest_particle():
     probe = PointDisplacement("toe", Holder(body), (0.9, 0.1))
     assert not probe.carried
     np.testing.assert_allclose(probe.sample(), [0.3, 0.4, 1.3, 0.4])
+
+
+def test_a_point_of_a_rigid_body_turns_with_it():
+    """A rigid body keeps F = I: the point is carried by the body's rotation instead."""
+    body = Body("box", "solid", 4)
+    body["x0"] = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
+    body["F"] = np.tile(np.eye(2), (4, 1, 1))
+    t = 0.4
+    R = np.array([[np.cos(t), -np.sin(t)], [np.sin(t), np.cos(t)]])
+    body["x"] = body["x0"] @ R.T + [2.0, 3.0]
+    holder = Holder(body)
+    holder.rigid = True
+    probe = PointDisplacement("corner", holder, (1.2, 1.1))
+    ux, uy, x, y = probe.sample()
+    np.testing.assert_allclose([x, y], R @ [1.2, 1.1] + [2.0, 3.0], atol=1e-12)
