@@ -37,13 +37,14 @@ class PointDisplacement:
         else:
             self.indices = np.array([int(np.argmin(d))])
         self.at = np.asarray(at, dtype=float)
-        self.offset = self.at - x0[self.indices]          # X_A - X_p
+        self.x0 = x0[self.indices]
+        self.offset = self.at - self.x0          # X_A - X_p
 
     def sample(self):
         b = self.body.body
         x = b["x"][self.indices]
         if not self.carried:   # the particle(s) themselves
-            u = (x - (self.at - self.offset)).mean(axis=0)
+            u = (x - self.x0).mean(axis=0)
             xa = x.mean(axis=0)
             return [u[0], u[1], xa[0], xa[1]]
         F = rotation(b["x"], b["x0"])[None] if self.rigid else b["F"][self.indices]

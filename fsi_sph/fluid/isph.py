@@ -355,8 +355,9 @@ def warm_up(kind):
     rg = np.zeros((n, 2))
     K.pressure_gradient(x, p, vol, start, j, n, h, kind, 1.0, n, none, none, rg, gp)
     K.corrected_pressure_gradient(x, p, vol, L, start, j, n, h, kind, n, none, none, rg, gp)
-    K.structure_row_pressure_gradient(x, p, vol, start, j, n, h, kind, 1.0, n, none, none, rg,
-                                      ~none, gp)
+    for level_free in (False, True):
+        K.structure_row_pressure_gradient(x, p, vol, start, j, n, h, kind, 1.0, n, none, none,
+                                          rg, level_free, ~none, gp)
     dr = np.zeros((n, 2))
     for model in (0, 1, 2):
         K.shift_vectors(x, v, vol, start, j, n, h, kind, model, 1.0, 0.0, 0.1, cls, nrm, dr)

@@ -69,21 +69,14 @@ class PressureGradient:
                                       floor_row, rg, out)
         if form == "interface_conservative" and ps.ns:
             # the rows beside a structure take the pair form [F 10], the one that balances the
-            # interface force [F 46-47] (under a uniform pressure both vanish there); the
-            # waterline rows keep the corrected form (interface_weights)
+            # interface force [F 46-47] (under a uniform pressure both vanish there); in a
+            # confined flow, whose pressure level is arbitrary and through the pair form's
+            # self-term pushed the rows of an irregular support (the flag's root), the
+            # difference form over the whole support (docs/numerics/coupling.md § Pressure
+            # level of a confined flow); the waterline rows keep the corrected form
+            # (interface_weights)
             rows = self.rows.structure_rows(jmax) & ~self.rows.waterline_rows()
-            if ps.confined:
-                # a confined flow's pressure level is arbitrary, and through the pair form's
-                # self-term it pushed the rows of an irregular support (the flag's root):
-                # there the difference form over the whole support (docs/numerics/
-                # coupling.md § Pressure level of a confined flow)
-                K.structure_row_pressure_gradient(
-                    ps.x_all, p, ps.vol_all, ps.ff_start, ps.ff_j, ps.nf, ps.h, ps.kernel,
-                    ps.grad_scale, jmax, floored, floor_row, rg, rows, out)
-                return out
-            cons = np.empty_like(out)
-            K.pressure_gradient(ps.x_all, p, ps.vol_all, ps.ff_start, ps.ff_j, ps.nf,
-                                ps.h, ps.kernel, ps.grad_scale, jmax, floored, floor_row,
-                                rg, cons)
-            out[rows] = cons[rows]
+            K.structure_row_pressure_gradient(ps.x_all, p, ps.vol_all, ps.ff_start, ps.ff_j,
+                                              ps.nf, ps.h, ps.kernel, ps.grad_scale, jmax,
+                                              floored, floor_row, rg, ps.confined, rows, out)
         return out

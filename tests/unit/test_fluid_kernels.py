@@ -580,7 +580,7 @@ def test_structure_rows_take_the_difference_form_with_the_coupling_pair_terms(pe
     def with_pairs(p):
         g = np.full((nf, 2), 7.0)
         K.structure_row_pressure_gradient(x, p, vol, s, j, nf, H, KIND, 1.01, jmax, none,
-                                          floor, np.zeros((n, 2)), rows, g)
+                                          floor, np.zeros((n, 2)), True, rows, g)
         pairs = np.zeros((nf, 2))
         for i, jj, d, r in ref.pairs(x, H, nf):
             if jj >= jmax:
@@ -601,3 +601,12 @@ def test_structure_rows_take_the_difference_form_with_the_coupling_pair_terms(pe
     assert np.abs(level[rows]).max() < 1e-9
     pair_form = ref.conservative_gradient(x, np.full(n, 5e3), vol, H, nf, 1.01)
     assert np.abs(pair_form[rows & near]).max() > 1.0
+    # level_free False (a flow with a free surface): the pair form on the rows, bit for bit
+    # the conservative kernel's
+    g = np.zeros((nf, 2))
+    K.structure_row_pressure_gradient(x, p, vol, s, j, nf, H, KIND, 1.01, jmax, none, floor,
+                                      np.zeros((n, 2)), False, rows, g)
+    cons = np.zeros((nf, 2))
+    K.pressure_gradient(x, p, vol, s, j, nf, H, KIND, 1.01, jmax, none, floor,
+                        np.zeros((n, 2)), cons)
+    assert np.array_equal(g[rows], cons[rows])

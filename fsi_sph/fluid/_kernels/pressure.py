@@ -218,28 +218,33 @@ def pressure_gradient(x, p, vol, nbr_start, nbr_j, nf, h, kind, grad_scale, jmax
 
 @njit(cache=True, parallel=True)
 def structure_row_pressure_gradient(x, p, vol, nbr_start, nbr_j, nf, h, kind, grad_scale,
-                                    jmax, floored, floor_row, rg, rows, out_grad):
-    """The rows beside a coupled structure in a confined flow (``rows[i]``; others
-    untouched): ``grad_scale [sum_{j < jmax} V_j (p_j - p_i) grad W_ij - 2 p_i
-    sum_{j >= jmax} V_j grad W_ij]``. With the coupling's pair terms
-    ``V_s (p_i + p_s) grad W_is`` [F 46-47] added, the row's gradient is
+                                    jmax, floored, floor_row, rg, level_free, rows, out_grad):
+    """The rows beside a coupled structure (``rows[i]``; the others untouched), the
+    structure's own pair terms ``V_s (p_i + p_s) grad W_is`` [F 46-47] being added by the
+    coupling. ``level_free`` False: the pair form [F 10]
+    ``grad_scale sum_{j < jmax} V_j (p_i + p_j) grad W_ij``, which with the coupling's terms
+    balances the interface force pair by pair. ``level_free`` True (a confined flow):
+    ``grad_scale [sum_{j < jmax} V_j (p_j - p_i) grad W_ij - 2 p_i sum_{j >= jmax} V_j
+    grad W_ij]``, so that with the coupling's terms the row's gradient is
     ``grad_scale sum_j V_j (p_j - p_i) grad W_ij`` over its whole support, structure
-    included (the difference form [F 7] without its correction matrix): the pair form
-    [F 10] less its self-term ``2 p_i sum_j V_j grad W_ij``, by which a uniform pressure
-    pushes a row of an irregular support. The structure keeps the pair form's reaction (the
-    absolute pressure on its surface). Floors as in :func:`corrected_pressure_gradient`."""
+    included (the difference form [F 7] without its correction matrix): the pair form less
+    its self-term ``2 p_i sum_j V_j grad W_ij``, by which a uniform pressure pushes a row of
+    an irregular support; the structure keeps the pair form's reaction (the absolute
+    pressure on its surface). Floors as in :func:`corrected_pressure_gradient`."""
+    own = -1.0 if level_free else 1.0
     for i in prange(nf):
         if not rows[i]:
             continue
         s0, s1 = _pressure_pair_sum(x, p, vol, nbr_start, nbr_j, i, h, kind, jmax, floored,
-                                    floor_row, rg, -1.0)
-        for k in range(nbr_start[i], nbr_start[i + 1]):
-            j, d0, d1, r = pair_offset(x, x, nbr_j, i, k)
-            if j < jmax or r < 1e-12 * h:
-                continue
-            f = -2.0 * p[i] * vol[j] * kernel_dw(kind, r, h) / r
-            s0 += f * d0
-            s1 += f * d1
+                                    floor_row, rg, own)
+        if level_free:  # the self-term of the structure's pairs
+            for k in range(nbr_start[i], nbr_start[i + 1]):
+                j, d0, d1, r = pair_offset(x, x, nbr_j, i, k)
+                if j < jmax or r < 1e-12 * h:
+                    continue
+                f = -2.0 * p[i] * vol[j] * kernel_dw(kind, r, h) / r
+                s0 += f * d0
+                s1 += f * d1
         out_grad[i, 0] = grad_scale * s0
         out_grad[i, 1] = grad_scale * s1
 
