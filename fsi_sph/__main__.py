@@ -156,9 +156,10 @@ def cmd_run(args):
         if "restart:" in str(e):  # the run file does not fit this scene: bad input
             raise UsageError(f"--restart {resume}: {e}") from None
         raise
-    log.info("%s: %d steps to t = %.4g s in %.2f s (%.3g particle-steps/s); output %s",
-             s["status"], s["steps"], s["t"], s["loop_time_s"], s["particle_steps_per_s"],
-             s["output"])
+    log.info("%s: %d steps to t = %.4g s%s in %.2f s (%.3g particle-steps/s); output %s",
+             s["status"], s["steps"], s["t"],
+             f" ({s['steps_this_run']} of them in this run)" if resume else "",
+             s["loop_time_s"], s["particle_steps_per_s"], s["output"])
     for p in sim.probes:
         log.info("probe %s: %s", p.name,
                  ", ".join(f"{c} = {v:.6g}" for c, v in zip(p.columns, p.sample(), strict=True)))

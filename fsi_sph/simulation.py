@@ -216,6 +216,7 @@ class Simulation:
         """
         c = self.cfg.case
         writer = _open_writer(self, out_dir, case_file, resume)
+        steps0, particle_steps0 = self.n_steps, self.particle_steps  # a restart's clock
         rows = {p.name: (p.columns, []) for p in self.probes}
         step_rows = []
         eps = 1e-12 * c.t_end
@@ -306,10 +307,14 @@ class Simulation:
                     flush(last_snapshot[0] < self.t, status,
                           restart_point=status == "completed" and last_snapshot[0] < self.t)
                 writer.finish(status, _timing_attrs(self))
+        # steps and particle-steps count from t = 0 (a restarted run's too); the throughput
+        # is this call's: its particle-steps over its loop time
         summary = {"status": status, "steps": self.n_steps, "t": self.t,
+                   "steps_this_run": self.n_steps - steps0,
                    "n_particles": self.n_particles, "particle_steps": self.particle_steps,
                    "loop_time_s": self.timings["loop"], "setup_time_s": self.timings["setup"],
-                   "particle_steps_per_s": self.particle_steps / max(self.timings["loop"], 1e-12),
+                   "particle_steps_per_s": ((self.particle_steps - particle_steps0)
+                                            / max(self.timings["loop"], 1e-12)),
                    "output": str(writer.path) if writer else None}
         return summary
 

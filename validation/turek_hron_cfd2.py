@@ -4,7 +4,8 @@
 Reference (Turek & Hron 2006, the benchmark's table for CFD2): drag 136.7 N/m and lift
 10.53 N/m on the cylinder and the flag together. Measured: the ``body_force`` probe (the
 fluid's pressure and viscous pair forces on the wall particles of the cylinder and flag),
-averaged over the last second of the run; its standard deviation over that second says how
+averaged over the last second of the run (up to the run's shortened last steps:
+``turek_hron_measures.landing_start``); its standard deviation over that second says how
 steady the SPH flow is. ``errors.drag_mean_pct`` and ``errors.lift_mean_pct`` are signed %.
 The ladder is D / dx = 10 / 20 (dx 0.01 / 0.005 m); ``--quick`` runs the first.
 """
@@ -15,8 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from fsi_sph.output import read_probe
 from validation.common import ladder_result
+from validation.turek_hron_measures import probe_before_landing
 
 CASE = Path(__file__).resolve().parents[1] / "cases" / "turek_hron_cfd2.toml"
 LADDER = [0.01, 0.005]   # m; D / dx = 10, 20
@@ -26,10 +27,10 @@ WINDOW = 1.0  # s: the last second of the run is averaged
 
 
 def measure(sim, run_file):
-    t, f = read_probe(run_file, "body_force")
+    t, f = probe_before_landing(run_file, "body_force")
     late = t >= t[-1] - WINDOW
     drag, lift = float(np.mean(f["fx"][late])), float(np.mean(f["fy"][late]))
-    _, c = read_probe(run_file, "cylinder_force")
+    _, c = probe_before_landing(run_file, "cylinder_force")
     errors = {"drag_mean_pct": 100.0 * (drag - DRAG) / DRAG,
               "lift_mean_pct": 100.0 * (lift - LIFT) / LIFT}
     values = {"drag_N_per_m": drag, "lift_N_per_m": lift,

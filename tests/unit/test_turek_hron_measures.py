@@ -52,3 +52,85 @@ def test_periodic_errors_against_a_reference():
     assert errors["drag_mean_pct"] == pytest.approx(0.0, abs=1e-4)
     assert errors["drag_amplitude_pct"] == pytest.approx(0.0, abs=1e-2)  # peaks between samples
     assert "drag_frequency_pct" not in errors
+
+
+def _noisy_lift(t):
+    """A lift of 234.2 N/m at 2 Hz with its 3rd harmonic, and noise of +-150 N/m at 17-19 Hz
+    as the SPH force carries."""
+    clean = 0.88 + 234.2 * np.sin(2 * np.pi * 2.0 * t) + 30.0 * np.sin(2 * np.pi * 6.0 * t)
+    noise = 90.0 * np.sin(2 * np.pi * 17.0 * t + 1.0) + 60.0 * np.sin(2 * np.pi * 19.3 * t)
+    return clean, clean + noise
+
+
+def test_lowpass_removes_the_noise_and_keeps_the_harmonics():
+    """Samples at irregular times (a probe written at the first step past each probe time):
+    the filtered signal matches the clean one away from the ends, with no phase shift."""
+    rng = np.random.default_rng(3)
+    t = np.cumsum(0.005 + 0.001 * rng.random(3000))
+    clean, noisy = _noisy_lift(t)
+    from validation.turek_hron_measures import lowpass
+
+    t_u, y_f = lowpass(t, noisy, 10.0)
+    inner = (t_u > t_u[0] + 1.0) & (t_u < t_u[-1] - 1.0)
+    ref = np.interp(t_u, t, clean)
+    assert np.max(np.abs(y_f - ref)[inner]) < 0.05 * 234.2
+    assert np.max(np.abs(np.interp(t_u, t, noisy) - ref)[inner]) > 0.5 * 234.2
+
+
+def test_periodic_errors_of_a_filtered_force():
+    """The benchmark's (max - min) / 2 of the noisy lift reads the noise (+50 % and more);
+    filtered at 10 Hz it reads the lift's own amplitude, and the cut-off is recorded."""
+    from validation.turek_hron_measures import oscillation, periodic_errors
+
+    t = np.linspace(0.0, 10.0, 2001)
+    clean, noisy = _noisy_lift(t)
+    ref = {"lift_N_per_m": (0.88, 234.2, 2.0)}
+    late = t >= 7.0
+    amp_clean = oscillation(t[late], clean[late])[1]
+    raw, _ = periodic_errors(t, {"lift_N_per_m": noisy}, ref, 3.0)
+    filtered, values = periodic_errors(t, {"lift_N_per_m": noisy}, ref, 3.0,
+                                       lowpass_hz={"lift_N_per_m": 10.0})
+    assert raw["lift_amplitude_pct"] > 50.0
+    assert values["lift_lowpass_Hz"] == 10.0
+    assert values["lift_N_per_m_amplitude"] == pytest.approx(amp_clean, rel=0.02)
+    assert filtered["lift_frequency_pct"] == pytest.approx(0.0, abs=0.5)
+
+
+def test_a_harmonic_wiggling_about_the_mean_does_not_start_a_cycle():
+    """A 2 Hz signal with a strong 6 Hz harmonic crosses its mean three times upwards per
+    period; the frequency is still 2 Hz."""
+    t = np.linspace(0.0, 3.0, 6001)
+    y = np.sin(2 * np.pi * 2.0 * t) - 0.8 * np.sin(2 * np.pi * 6.0 * t)
+    from validation.oscillating_plate import crossing_times
+
+    assert len(crossing_times(t, y, upward=True)) > 10  # the plain count is wrong
+    assert oscillation(t, y)[2] == pytest.approx(2.0, rel=1e-3)
+
+
+def _steps_file(path, dts):
+    import json
+
+    import h5py
+
+    t = np.cumsum(dts)
+    with h5py.File(path, "w") as f:
+        d = f.create_dataset("steps", data=np.column_stack([t, dts, np.zeros_like(t)]))
+        d.attrs["columns"] = json.dumps(["t", "dt", "n_sub"])
+    return t
+
+
+@pytest.mark.parametrize("tail, first_short", [([1e-3, 0.6e-3, 0.6e-3], 4),
+                                               ([1e-3, 1e-3, 0.2e-3], 5),
+                                               ([1e-3, 0.999e-3, 0.998e-3], None)])
+def test_landing_start_finds_the_shortened_last_steps(tmp_path, tail, first_short):
+    """The run's end split in two equal steps, a last step cut short, or no landing (dt
+    drifting by 0.1 % a step): the measures stop where the first short step starts."""
+    from validation.turek_hron_measures import landing_start
+
+    dts = np.array([1.02e-3, 1.01e-3, 1.0e-3, *tail])
+    t = _steps_file(tmp_path / "run.h5", dts)
+    start = landing_start(tmp_path / "run.h5")
+    if first_short is None:
+        assert start == np.inf
+    else:
+        assert start == pytest.approx(t[first_short - 1], abs=1e-15)
