@@ -261,11 +261,16 @@ def _print_scene(cfg, est, sim):
 def _print_frequencies(name, body):
     """An elastic body's lowest natural frequencies in vacuum (fsi_sph/solid/modes.py): the
     time scales its sub-steps and the output interval must resolve."""
-    from fsi_sph.solid.modes import MAX_MODAL_PARTICLES, natural_frequencies
+    from fsi_sph.solid.modes import MAX_MODAL_PARTICLES, natural_frequencies, particles_through
     from fsi_sph.solid.tlsph import ElasticBody
 
     if not isinstance(body, ElasticBody):  # (a soil body)
         return
+    across = particles_through(body.body["x0"], math.sqrt(float(body.body["vol"][0])))
+    if across < 4:
+        print(f"solid.{name}: {across} particles through it: its bending is poorly resolved "
+              f"(4 or more needed; with 2 the Turek-Hron flag is 32 % too stiff: "
+              f"docs/numerics/solid.md § Natural modes)")
     f = natural_frequencies(body)
     if f is not None:
         print(f"solid.{name}: lowest natural frequencies in vacuum "

@@ -114,3 +114,39 @@ def test_internal_acceleration_is_the_step_acceleration_at_rest(rng, hourglass):
     body._accelerations()
     np.testing.assert_array_equal(a, b["a"])
     assert np.abs(a).max() > 1.0  # the perturbation is felt
+
+
+def _lattice(nx, ny, dx=0.01):
+    i, j = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
+    return dx * np.column_stack([i.ravel(), j.ravel()]).astype(float) + 0.3
+
+
+@pytest.mark.parametrize("x0, across", [(_lattice(36, 2), 2), (_lattice(4, 50), 4),
+                                        (_lattice(20, 5), 5),
+                                        (np.vstack([_lattice(12, 3), _lattice(3, 12)]), 3)])
+def test_particles_through_a_body(x0, across):
+    """A flag, a plate standing up, a block, an L of two arms 3 thick (duplicate corner
+    sites are the same lattice site)."""
+    from fsi_sph.solid.modes import particles_through
+
+    assert particles_through(x0, 0.01) == across
+
+
+def test_particles_through_a_disc_is_its_diameter_order():
+    from fsi_sph.solid.modes import particles_through
+
+    x0 = _lattice(21, 21)
+    c = x0.mean(axis=0)
+    disc = x0[np.hypot(*(x0 - c).T) <= 0.1 + 1e-9]
+    assert 10 <= particles_through(disc, 0.01) <= 21
+
+
+@pytest.mark.parametrize("dx, warned", [(0.01, True), (0.004, False)])
+def test_info_warns_of_a_structure_too_thin_to_bend(capsys, dx, warned):
+    """The plate (0.02 m thick): 2 particles through it at dx 0.01 m, 5 at 0.004 m."""
+    from fsi_sph.__main__ import main
+
+    assert main(["info", "cases/oscillating_plate.toml", "--set", f"case.dx={dx}"]) == 0
+    out = capsys.readouterr().out
+    assert ("2 particles through it: its bending is poorly resolved" in out) is warned
+    assert ("poorly resolved" in out) is warned
