@@ -13,7 +13,8 @@ the last periods, and the frequency of the signal):
 Measured over the last ``WINDOW`` seconds of the run; the drag and the lift after a low-pass
 filter at ``LOWPASS_HZ`` (their SPH noise lies at 15-20 Hz). Errors are signed %; the means of
 ``u_y`` and of the lift (references near zero) are reported as values only. A plot of the
-tip's displacement over the whole run with the reference's band is written beside the record.
+tip's displacement over the whole run with the reference's band (``tip.png``) and one of the
+forces over the window, raw and filtered (``forces.png``), are written beside the record.
 The ladder is D / dx = 10 / 20 (dx 0.01 / 0.005 m: two / four particles through the flag);
 ``--quick`` runs the first.
 """
@@ -76,6 +77,40 @@ def plot_tip(run_files, path):
     plt.close(fig)
 
 
+def plot_forces(run_files, path):
+    """Drag and lift over the measured window for each rung: the probes' signal and the
+    low-pass filtered one the measures read, with the reference's band."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from validation.turek_hron_measures import lowpass
+
+    keys = ("drag_N_per_m", "lift_N_per_m")
+    fig, axes = plt.subplots(2, len(run_files), figsize=(5.0 * len(run_files), 5.6),
+                             squeeze=False, sharey="row", layout="constrained")
+    for col, (label, run_file) in enumerate(run_files):
+        t, sig = signals(run_file)
+        for row, key in enumerate(keys):
+            ax = axes[row, col]
+            late = t >= t[-1] - WINDOW
+            ax.plot(t[late], sig[key][late], lw=0.5, color="0.65", label="probe")
+            t_f, y_f = lowpass(t, sig[key], LOWPASS_HZ[key])
+            keep = t_f >= t[-1] - WINDOW
+            ax.plot(t_f[keep], y_f[keep], lw=1.2, label=f"low-pass {LOWPASS_HZ[key]:g} Hz")
+            mean, amp, _ = REF[key]
+            for y in (mean - amp, mean + amp):
+                ax.axhline(y, color="k", ls="--", lw=0.8)
+            ax.set_title(f"{label}: {key.split('_')[0]}", fontsize=9)
+            ax.set_ylabel(f"{key.split('_')[0]} (N/m)")
+        axes[1, col].set_xlabel("t (s)")
+    axes[0, 0].plot([], [], "k--", lw=0.8, label="Turek & Hron 2006: mean +- amplitude")
+    axes[0, 0].legend(fontsize=7)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def validate(quick, data_dir, out_dir):
     ladder = QUICK if quick else LADDER
     records, runs = [], []
@@ -89,4 +124,5 @@ def validate(quick, data_dir, out_dir):
     result = {"case": "turek_hron_fsi2", "reference": REFERENCE, "records": records}
     out = write_outputs(result, out_dir)
     plot_tip(runs, out / "tip.png")
+    plot_forces(runs, out / "forces.png")
     return result
