@@ -277,6 +277,16 @@ def read_probe(path, name):
     return data[:, 0], {c: data[:, k] for k, c in enumerate(cols) if k > 0}
 
 
+def read_steps(path):
+    """{column: values} of a run file's per-step table (``/steps``; empty without one)."""
+    with h5py.File(path, "r") as f:
+        if "steps" not in f:
+            return {}
+        cols = json.loads(f["steps"].attrs["columns"])
+        data = f["steps"][()]
+    return {c: data[:, k] for k, c in enumerate(cols)}
+
+
 def refuse_overwrite(path):
     """Raise :class:`UsageError` when ``path`` already holds a run (its status and time in
     the message), so that a second run does not replace what a user computed."""

@@ -264,7 +264,6 @@ class Simulation:
                 # kept solver state, one step after the start)
                 self.next_out += c.output_every
                 flush(True)
-            steps0 = self.n_steps
             while self.t < c.t_end - eps:
                 if max_steps is not None and self.n_steps - steps0 >= max_steps:
                     status = f"stopped at max_steps = {max_steps}"

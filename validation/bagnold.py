@@ -15,7 +15,6 @@ implicit viscous step does not need.
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
@@ -46,12 +45,9 @@ def reference(cfg):
 
 
 def step_log(run_file):
-    import h5py
+    from fsi_sph.output import read_steps
 
-    with h5py.File(run_file, "r") as f:
-        cols = json.loads(f["steps"].attrs["columns"])
-        s = f["steps"][()]
-    return {c: s[:, k] for k, c in enumerate(cols)}
+    return read_steps(run_file)
 
 
 def snapshot_errors(run_file, profile, u_surf, dx):

@@ -23,13 +23,11 @@ Errors (signed % unless said):
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
-import h5py
 import numpy as np
 
-from fsi_sph.output import read_probe
+from fsi_sph.output import read_probe, read_steps
 from validation.common import ladder_result
 
 CASE = Path(__file__).resolve().parents[1] / "cases" / "channel_poiseuille.toml"
@@ -58,12 +56,10 @@ def measure(sim, run_file):
     drop = p4["p"][late_p] - p1["p"][late_p]
     dpdx = float(np.mean(drop)) / (3.0 * H)
     dpdx_ref = -12.0 * mu * U / H ** 2
-    with h5py.File(run_file, "r") as f:
-        cols = json.loads(f["steps"].attrs["columns"])
-        steps = f["steps"][()]
-    t = steps[:, cols.index("t")]
-    m_in = np.cumsum(steps[:, cols.index("mass_in")])
-    m_out = np.cumsum(steps[:, cols.index("mass_out")])
+    steps = read_steps(run_file)
+    t = steps["t"]
+    m_in = np.cumsum(steps["mass_in"])
+    m_out = np.cumsum(steps["mass_out"])
     late = t >= 0.5 * t[-1]
     rate_in = float(np.polyfit(t[late], m_in[late], 1)[0])
     rate_out = float(np.polyfit(t[late], m_out[late], 1)[0])

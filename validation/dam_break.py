@@ -149,17 +149,13 @@ def validate(quick, data_dir, out_dir):
 
 
 def _ppe_summary(run_file):
-    import json
+    from fsi_sph.output import read_steps
 
-    import h5py
-
-    with h5py.File(run_file, "r") as f:
-        cols = json.loads(f["steps"].attrs["columns"])
-        s = f["steps"][()]
-    it = s[:, cols.index("ppe_iterations")]
+    s = read_steps(run_file)
+    it = s["ppe_iterations"]
     return {"ppe_iterations_mean": float(it.mean()), "ppe_iterations_max": float(it.max()),
-            "ppe_residual_max": float(s[:, cols.index("ppe_residual")].max()),
-            "ppe_rebuilds": float(s[:, cols.index("ppe_rebuilt")].sum())}
+            "ppe_residual_max": float(s["ppe_residual"].max()),
+            "ppe_rebuilds": float(s["ppe_rebuilt"].sum())}
 
 
 def _plot_front(curves, data, path):

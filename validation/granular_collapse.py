@@ -226,14 +226,9 @@ def _tank_length(over):
 
 
 def _step_log(run_file):
-    import json
+    from fsi_sph.output import read_steps
 
-    import h5py
-
-    with h5py.File(run_file, "r") as f:
-        cols = json.loads(f["steps"].attrs["columns"])
-        s = f["steps"][()]
-    return {c: s[:, k] for k, c in enumerate(cols)}
+    return read_steps(run_file)
 
 
 def _plot_deposits(deposits, path):

@@ -11,13 +11,11 @@ harmonics pass, the noise does not. Not in PHYSICS.md (a measure, not physics)."
 
 from __future__ import annotations
 
-import json
 import math
 
-import h5py
 import numpy as np
 
-from fsi_sph.output import read_probe
+from fsi_sph.output import read_probe, read_steps
 
 
 def cycle_starts(t, y, band):
@@ -66,12 +64,10 @@ def landing_start(run_file):
     ``dt``, so a step suddenly shorter carries a force spike (FSI2 at D/dx = 20: the lift
     -228 -> -832 N/m, the drag 150 -> 358 N/m on the final step at 0.6 dt): measures stop
     before it."""
-    with h5py.File(run_file, "r") as f:
-        if "steps" not in f or len(f["steps"]) < 3:
-            return math.inf
-        cols = json.loads(f["steps"].attrs["columns"])
-        rows = f["steps"][-3:]
-    t, dt = rows[:, cols.index("t")], rows[:, cols.index("dt")]
+    steps = read_steps(run_file)
+    if len(steps.get("t", ())) < 3:
+        return math.inf
+    t, dt = steps["t"][-3:], steps["dt"][-3:]
     if abs(dt[-1] - dt[-2]) <= 1e-9 * dt[-2] and dt[-2] < 0.99 * dt[-3]:  # split in two
         return float(t[-2] - dt[-2])
     if dt[-1] < 0.99 * dt[-2]:  # the last step alone cut short

@@ -134,3 +134,15 @@ def test_landing_start_finds_the_shortened_last_steps(tmp_path, tail, first_shor
         assert start == np.inf
     else:
         assert start == pytest.approx(t[first_short - 1], abs=1e-15)
+
+
+def test_a_run_without_a_step_table_has_no_landing(tmp_path):
+    import h5py
+
+    from fsi_sph.output import read_steps
+    from validation.turek_hron_measures import landing_start
+
+    with h5py.File(tmp_path / "run.h5", "w") as f:
+        f.create_group("probes")
+    assert read_steps(tmp_path / "run.h5") == {}
+    assert landing_start(tmp_path / "run.h5") == np.inf
