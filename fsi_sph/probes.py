@@ -124,14 +124,16 @@ class BodyForce:
     """The fluid's force on the fixed walls or a coupled structure, or on the part of it
     inside ``region`` (its particles' reference positions), from the same pair terms the
     coupling uses (:meth:`BoundaryRows.fluid_forces`: pressure [F 46-47] and viscous
-    [F 11-12]). Columns: ``fx, fy`` (N/m): drag and lift for a flow along x. In a confined
+    [F 11-12]). Columns: ``fx, fy`` (N/m): drag and lift for a flow along x, and
+    ``fx_viscous, fy_viscous``, their viscous part (the skin friction; the rest is the
+    pressure's). In a confined
     flow the pressure pair term is taken relative to the mean pressure of the fluid rows
     beside the body (:func:`fsi_sph.fluid.gauge.level_beside`): the channel's level moves by
     kilopascals from step to step, and the pair form on a closed body's irregular support
     turned that into force noise (Turek-Hron CFD2, D/dx = 10, the last second of the same
     run: drag std 94 -> 38 N/m, lift std 94 -> 73 N/m)."""
 
-    columns = ("fx", "fy")
+    columns = ("fx", "fy", "fx_viscous", "fy_viscous")
 
     def __init__(self, name, fluid, body, region):
         self.name = name
@@ -152,8 +154,10 @@ class BodyForce:
         rows = self.offset() + self.rows
         # a confined flow: relative to the pressure level beside the body (fluid/gauge.py)
         level = level_beside(fl, rows) if fl.confined else None
-        f = fl.boundary.fluid_forces(level)
-        return [float(v) for v in f[rows].sum(axis=0)]
+        pressure, viscous = fl.boundary.fluid_forces(level, split=True)
+        f = (pressure + viscous)[rows].sum(axis=0)
+        fv = viscous[rows].sum(axis=0)
+        return [float(f[0]), float(f[1]), float(fv[0]), float(fv[1])]
 
 
 def make_probe(cfg, bodies):

@@ -36,6 +36,9 @@ def measure(sim, run_file):
     values = {"drag_N_per_m": drag, "lift_N_per_m": lift,
               "drag_std_N_per_m": float(np.std(f["fx"][late])),
               "lift_std_N_per_m": float(np.std(f["fy"][late])),
+              # skin friction (the viscous pair terms) and pressure drag apart
+              "drag_viscous_N_per_m": float(np.mean(f["fx_viscous"][late])),
+              "drag_pressure_N_per_m": drag - float(np.mean(f["fx_viscous"][late])),
               "cylinder_drag_N_per_m": float(np.mean(c["fx"][late])),
               "cylinder_lift_N_per_m": float(np.mean(c["fy"][late])),
               "window_s": WINDOW, "t_end_s": float(t[-1])}

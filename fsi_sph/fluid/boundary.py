@@ -235,7 +235,7 @@ class BoundaryRows:
         u_w[ps.n_fixed:ps.n_walls] = ps.v_b[ps.n_fixed:ps.n_walls]
         return u_w
 
-    def fluid_forces(self, level=None):
+    def fluid_forces(self, level=None, split=False):
         """Force of the fluid on every boundary row (N/m; walls, buffers, structures), from
         the pressures of the last solve and the velocities of the step: the pressure pair
         term of the interface [F 46-47] (:func:`~fsi_sph.sph.interface.pair_pressure_forces`,
@@ -245,7 +245,9 @@ class BoundaryRows:
         the row's velocity as the viscous term saw it (the no-slip mirror of a through-flow),
         times the row's mass ``rho V_w`` (equal volumes: action = reaction pair by pair).
         The pair term takes the pressures relative to ``level`` (Pa; a force probe of a
-        confined flow passes the level beside its body, :mod:`fsi_sph.fluid.gauge`)."""
+        confined flow passes the level beside its body, :mod:`fsi_sph.fluid.gauge`).
+        ``split``: return the pressure and the viscous parts as two arrays instead of their
+        sum (a body's pressure drag and skin friction)."""
         ps = self.ps
         nf, nb = ps.nf, ps.nw
         ps.sync()
@@ -267,8 +269,10 @@ class BoundaryRows:
         K.predict_velocity(x, v, vol, nu, start, j + nb, nb, ps.h, ps.kernel, ps.eta2,
                            0.0, 0.0, 1.0, acc)
         acc -= u_b
-        out += ps.rho * ps.vol_all[nf:nf + nb, None] * acc
-        return out
+        viscous = ps.rho * ps.vol_all[nf:nf + nb, None] * acc
+        if split:
+            return out, viscous
+        return out + viscous
 
     def refresh_wall_pressure(self):
         """Incremental projection: the fixed walls' ``p^n`` re-extrapolated from the fluid's

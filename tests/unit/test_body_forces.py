@@ -65,11 +65,12 @@ def test_union_and_fluid_around_a_round_body(scene):
     assert cKDTree(xw).query(xf)[0].min() > 0.7 * 0.01  # no overlap with the rings
 
 
-def oracle_forces(fl, u_b):
+def oracle_forces(fl, u_b, split=False):
     """Dense numpy: pressure pair [F 46-47] and Morris viscous pair [F 11-12] on every
-    boundary row from every fluid particle within 2h."""
+    boundary row from every fluid particle within 2h (``split``: the two parts apart)."""
     nf, nb = fl.nf, fl.nw
     out = np.zeros((nb, 2))
+    viscous = np.zeros((nb, 2))
     for w in range(nb):
         xw = fl.x_all[nf + w]
         for f in range(nf):
@@ -81,8 +82,8 @@ def oracle_forces(fl, u_b):
             vw, vf = fl.vol_all[nf + w], fl.vol_all[f]
             out[w] -= fl.grad_scale * vw * vf * (fl.p_all[nf + w] + fl.p_all[f]) * dw * d / r
             c = vf * (fl.nu0 + fl.nu_all[f]) * r * dw / (r * r + fl.eta2)
-            out[w] += fl.rho * vw * c * (u_b[w] - fl.v_all[f])
-    return out
+            viscous[w] += fl.rho * vw * c * (u_b[w] - fl.v_all[f])
+    return (out, viscous) if split else out + viscous
 
 
 def test_fluid_forces_match_numpy_oracle(scene):
@@ -97,6 +98,16 @@ def test_fluid_forces_match_numpy_oracle(scene):
     got = fl.boundary.fluid_forces()
     np.testing.assert_allclose(got, oracle_forces(fl, fl.v_b), rtol=1e-10, atol=1e-12)
     assert abs(sim.probes[0].sample()[0] - got[sim.probes[0].rows, 0].sum()) < 1e-12
+    pressure, viscous = fl.boundary.fluid_forces(split=True)
+    want_p, want_v = oracle_forces(fl, fl.v_b, split=True)
+    np.testing.assert_allclose(pressure, want_p, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(viscous, want_v, rtol=1e-10, atol=1e-12)
+    assert np.abs(viscous).max() > 1e-3 * np.abs(pressure).max()  # both parts present
+    np.testing.assert_array_equal(pressure + viscous, got)
+    fx, fy, fx_v, fy_v = sim.probes[0].sample()  # the probe's viscous columns
+    assert sim.probes[0].columns == ("fx", "fy", "fx_viscous", "fy_viscous")
+    assert fx_v == pytest.approx(viscous[sim.probes[0].rows, 0].sum(), rel=1e-12, abs=1e-15)
+    assert fy_v == pytest.approx(viscous[sim.probes[0].rows, 1].sum(), rel=1e-12, abs=1e-15)
 
 
 def test_linear_pressure_pushes_the_body_by_its_volume(scene):
@@ -134,6 +145,9 @@ def test_wall_shear_of_a_poiseuille_profile(tmp_path):
     f = fl.boundary.fluid_forces()[:fl.n_fixed][part].sum(axis=0)
     assert f[0] == pytest.approx(1.2, rel=0.07)
     assert f[0] < 1.2
+    pressure, viscous = fl.boundary.fluid_forces(split=True)  # p = 0: all of it skin friction
+    assert np.abs(pressure).max() == 0.0
+    assert viscous[:fl.n_fixed][part].sum(axis=0)[0] == pytest.approx(f[0], rel=1e-12)
 
 
 @pytest.mark.parametrize("body", ["fluid", "gate"])
