@@ -38,10 +38,14 @@ class Body:
     def select(self, keep, n_add=0):
         """Keep the rows ``keep`` (a mask) of every field and append ``n_add`` zero rows
         (a changing particle count: open boundaries)."""
+        rows = np.flatnonzero(keep)
+        n_keep = len(rows)
         for k, a in self.arrays.items():
-            tail = np.zeros((n_add, *a.shape[1:]), dtype=a.dtype)
-            self.arrays[k] = np.ascontiguousarray(np.concatenate([a[keep], tail]))
-        self.n = int(np.count_nonzero(keep)) + n_add
+            out = np.empty((n_keep + n_add, *a.shape[1:]), dtype=a.dtype)
+            np.take(a, rows, axis=0, out=out[:n_keep])
+            out[n_keep:] = 0
+            self.arrays[k] = out
+        self.n = n_keep + n_add
 
     def __getitem__(self, name):
         return self.arrays[name]

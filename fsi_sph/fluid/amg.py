@@ -265,17 +265,76 @@ class _Smoother:
 PARALLEL_ROWS = 8000  # below this many rows a loop runs on one thread (fewer barriers)
 
 
+@njit(cache=True)
+def take_rows(indptr, indices, data, old):
+    """CSR arrays ``(indptr, indices, data)`` of the matrix whose row ``i`` is row
+    ``old[i]`` of the given one, or empty where ``old[i] < 0``; explicit zeros dropped (as a
+    sparse product would). Rows keep their order of columns."""
+    n = len(old)
+    ptr = np.zeros(n + 1, dtype=np.int64)
+    for i in range(n):
+        count = 0
+        if old[i] >= 0:
+            for k in range(indptr[old[i]], indptr[old[i] + 1]):
+                if data[k] != 0.0:
+                    count += 1
+        ptr[i + 1] = ptr[i] + count
+    out_indices = np.empty(ptr[n], dtype=indices.dtype)
+    out_data = np.empty(ptr[n], dtype=np.float64)
+    for i in range(n):
+        e = ptr[i]
+        if old[i] >= 0:
+            for k in range(indptr[old[i]], indptr[old[i] + 1]):
+                if data[k] != 0.0:
+                    out_indices[e] = indices[k]
+                    out_data[e] = data[k]
+                    e += 1
+    return ptr, out_indices, out_data
+
+
+@njit(cache=True)
+def transpose(indptr, indices, data, n_cols):
+    """CSR arrays of the transpose (a counting sort: each row of the result sorted by
+    column)."""
+    ptr = np.zeros(n_cols + 1, dtype=np.int64)
+    for k in range(len(indices)):
+        ptr[indices[k] + 1] += 1
+    for c in range(n_cols):
+        ptr[c + 1] += ptr[c]
+    fill = ptr[:-1].copy()
+    out_indices = np.empty(len(indices), dtype=indices.dtype)
+    out_data = np.empty(len(indices), dtype=np.float64)
+    for r in range(len(indptr) - 1):
+        for k in range(indptr[r], indptr[r + 1]):
+            e = fill[indices[k]]
+            out_indices[e] = r
+            out_data[e] = data[k]
+            fill[indices[k]] += 1
+    return ptr, out_indices, out_data
+
+
 class _Csr:
     """The three CSR arrays of a matrix, contiguous and typed for the numba loops."""
 
     def __init__(self, M):
-        M = sp.csr_matrix(M)
-        if not M.has_sorted_indices:
-            M.sort_indices()
+        if not (sp.issparse(M) and M.format == "csr" and M.has_sorted_indices):
+            M = sp.csr_matrix(M)  # (a CSR matrix known to be sorted is read as it is)
+            if not M.has_sorted_indices:
+                M.sort_indices()
         self.indptr = np.ascontiguousarray(M.indptr, dtype=np.int32)
         self.indices = np.ascontiguousarray(M.indices, dtype=np.int32)
         self.data = np.ascontiguousarray(M.data, dtype=np.float64)
         self.shape = M.shape
+
+    @classmethod
+    def from_arrays(cls, indptr, indices, data, shape):
+        """From CSR arrays whose rows are already sorted by column."""
+        c = cls.__new__(cls)
+        c.indptr = np.ascontiguousarray(indptr, dtype=np.int32)
+        c.indices = np.ascontiguousarray(indices, dtype=np.int32)
+        c.data = np.ascontiguousarray(data, dtype=np.float64)
+        c.shape = shape
+        return c
 
     def matvec(self, x, out=None):
         out = np.empty(self.shape[0]) if out is None else out
@@ -347,15 +406,12 @@ class VCycle:
         if len(self.A) == 1:
             return False
         old = np.asarray(old_of_new, dtype=np.int64)
-        kept = old >= 0
-        take = np.where(kept, old, 0)
-        scale = sp.diags(kept.astype(np.float64))
-        P = sp.csr_matrix((self.P[0].data, self.P[0].indices, self.P[0].indptr),
-                          shape=self.P[0].shape)
-        R = sp.csr_matrix((self.R[0].data, self.R[0].indices, self.R[0].indptr),
-                          shape=self.R[0].shape)
-        self.P[0] = _Csr(scale @ P[take])
-        self.R[0] = _Csr(R[:, take] @ scale)
+        P, R = self.P[0], self.R[0]
+        self.P[0] = _Csr.from_arrays(*take_rows(P.indptr, P.indices, P.data, old),
+                                     (len(old), P.shape[1]))
+        # R's columns follow the rows of P: the rows of R^T, taken the same way
+        RT = take_rows(*transpose(R.indptr, R.indices, R.data, R.shape[1]), old)
+        self.R[0] = _Csr.from_arrays(*transpose(*RT, R.shape[0]), (R.shape[0], len(old)))
         self.work[0] = np.empty(len(old))
         return True
 
@@ -409,3 +465,4 @@ def warm_up():
         sm = _Smoother(c, block)
         sm.sweep(sm.zeros(), b, True)
     _boundary_blocks(c.indptr, c.indices, 1, np.array([0, 1], dtype=np.int32))
+    transpose(*take_rows(c.indptr, c.indices, c.data, np.array([1, -1])), 2)

@@ -163,6 +163,8 @@ class BoundaryRows:
         ps = self.ps
         if ps.cfg.wall_pressure != "mirror" or not ps.n_walls or not ps.p_known:
             return ps.g_b  # (before the first solve there is no gradient to read)
+        if not np.any(ps.gravity):  # no body force: the mirror's term is zero (a channel)
+            return ps.g_b
         nf, nwall = ps.nf, ps.n_walls
         gb = ps.g_b.copy()  # (the structures' rows as set_structures left them)
         if self._gb_cache is not None:  # the fixed walls' rows: once per step (predict)

@@ -63,14 +63,13 @@ def assemble(x, vol, alpha, source, L, consistent, f_start, f_j, w_start, w_j, n
     indptr = np.zeros(n + 1, dtype=np.int64)
     np.cumsum(row_len, out=indptr[1:])
     nnz = int(indptr[-1])
-    indices = np.empty(nnz, dtype=np.int64)
+    indices = np.empty(nnz, dtype=np.int32)  # pyamg's C++ routines take int32 indices
     data = np.empty(nnz, dtype=np.float64)
     b = np.empty(n, dtype=np.float64)
     K.ppe_fill(x, vol, alpha, source, L, consistent, f_start, f_j, w_start, w_j, nf, nw, h, kind,
                eta2, lap_scale, diag_ref, rho, gb,
                np.zeros(nw) if implicit is None else implicit, pair_w, indptr, indices, data, b)
-    # pyamg's C++ routines take int32 index arrays
-    A = sp.csr_array((data, indices.astype(np.int32), indptr.astype(np.int32)), shape=(n, n))
+    A = sp.csr_array((data, indices, indptr.astype(np.int32)), shape=(n, n))
     A.has_sorted_indices = True
     return A, b
 

@@ -279,3 +279,30 @@ def test_remap_keeps_the_rows_that_stay_and_zeroes_the_new_ones():
     x, its, rel = krylov.fgmres(amg.as_csr(A2), b, np.zeros(len(old)), vc, 1e-8, 100)
     assert rel <= 1e-8
 
+
+
+def test_remap_gives_the_arrays_of_the_sparse_products():
+    """The row gather of :func:`amg.take_rows` gives, array for array, what the sparse
+    products ``diag(kept) P[take]`` and ``R[:, take] diag(kept)`` gave (the implementation it
+    replaced): duplicated and dropped rows, new rows, explicit zeros."""
+    rng = np.random.default_rng(0)
+    for trial in range(30):
+        n, nc = int(rng.integers(5, 300)), int(rng.integers(2, 60))
+        P = sp.random(n, nc, density=0.1, random_state=trial, format="csr")
+        R = sp.random(nc, n, density=0.1, random_state=trial + 100, format="csr")
+        if trial % 3 == 0:
+            P.data[::7] = 0.0
+            R.data[::5] = 0.0
+        old = rng.integers(-1, n, int(rng.integers(1, 2 * n)))
+        kept = old >= 0
+        scale = sp.diags(kept.astype(np.float64))
+        want_P = amg._Csr(scale @ P[np.where(kept, old, 0)])
+        want_R = amg._Csr(R[:, np.where(kept, old, 0)] @ scale)
+        vc = amg.VCycle.__new__(amg.VCycle)
+        vc.A, vc.P, vc.R, vc.work = [None, None], [amg._Csr(P)], [amg._Csr(R)], [None]
+        assert vc.remap(old)
+        for want, got in ((want_P, vc.P[0]), (want_R, vc.R[0])):
+            assert want.shape == got.shape
+            for k in ("indptr", "indices", "data"):
+                assert np.array_equal(getattr(want, k), getattr(got, k)), (trial, k)
+                assert getattr(want, k).dtype == getattr(got, k).dtype
