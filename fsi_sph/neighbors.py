@@ -147,12 +147,32 @@ def find_neighbors(xd, xs, radius, exclude_self=False, origin=None):
     return start, nbr_j
 
 
+@njit(cache=True)
+def transpose_order(start, idx, n_cols):
+    """The transpose of the CSR pattern ``(start, idx)`` by a counting sort: ``(t_start,
+    t_idx, perm)``, each row of the transpose sorted (the original rows in increasing order)
+    and ``perm[e]`` the position in ``idx`` of the transpose's entry ``e`` (so its values
+    are ``data[perm]``)."""
+    t_start = np.zeros(n_cols + 1, dtype=np.int64)
+    for k in range(len(idx)):
+        t_start[idx[k] + 1] += 1
+    for c in range(n_cols):
+        t_start[c + 1] += t_start[c]
+    fill = t_start[:-1].copy()
+    t_idx = np.empty(len(idx), dtype=np.int64)
+    perm = np.empty(len(idx), dtype=np.int64)
+    for r in range(len(start) - 1):
+        for k in range(start[r], start[r + 1]):
+            e = fill[idx[k]]
+            t_idx[e] = r
+            perm[e] = k
+            fill[idx[k]] += 1
+    return t_start, t_idx, perm
+
+
 def transpose_csr(nbr_start, nbr_j, n_sources):
     """The reverse pair list: for each source ``j``, the destinations ``i`` that list it
     (sorted), as ``(start, i)``. Same pairs, so a pair force gathered on both sides from a
     list and its transpose cancels exactly."""
-    rows = np.repeat(np.arange(len(nbr_start) - 1, dtype=np.int64), np.diff(nbr_start))
-    order = np.lexsort((rows, nbr_j))
-    start = np.zeros(n_sources + 1, dtype=np.int64)
-    np.cumsum(np.bincount(nbr_j, minlength=n_sources), out=start[1:])
-    return start, rows[order]
+    start, rows, _ = transpose_order(nbr_start, nbr_j, n_sources)
+    return start, rows

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from fsi_sph.fluid import rheology as R
+from fsi_sph.output import read_steps
 from validation.common import record, run_case, write_outputs
 
 CASE = Path(__file__).resolve().parents[1] / "cases" / "bagnold.toml"
@@ -42,12 +43,6 @@ def reference(cfg):
         return R.bagnold_profile(y, depth, theta, q.d, phi, inertial, gmag)
 
     return theta, depth, inertial, profile
-
-
-def step_log(run_file):
-    from fsi_sph.output import read_steps
-
-    return read_steps(run_file)
 
 
 def snapshot_errors(run_file, profile, u_surf, dx):
@@ -86,7 +81,7 @@ def validate(quick, data_dir, out_dir):
         ke = cols["kinetic"]
         tail = t >= 0.9 * t[-1]
         change = 100.0 * (math.sqrt(ke[-1]) - math.sqrt(ke[tail][0])) / math.sqrt(ke[-1])
-        log = step_log(summary["output"])
+        log = read_steps(summary["output"])
         history = snapshot_errors(summary["output"], profile, u_surf, dx)
         top = y > depth - dx
         profiles[label] = (y, u)

@@ -35,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+from fsi_sph.output import read_steps
 from validation.common import record, run_case, write_outputs
 
 CASE = Path(__file__).resolve().parents[1] / "cases" / "granular_collapse.toml"
@@ -134,7 +135,7 @@ def run_column(a, quick, out_dir, seed):
     main = main_deposit(x, dx)
     front, n_detached = deposit_front(x, dx, main)
     body = body_front(x, dx)
-    log = _step_log(summary["output"])
+    log = read_steps(summary["output"])
     values = {
         "runout_sim": (front - L0) / L0, "L_inf_m": front,
         "surge_front_m": sim.fluid.surge_front(), "body_front_m": body,
@@ -223,12 +224,6 @@ def validate(quick, data_dir, out_dir, realizations=None, jobs=None):
 def _tank_length(over):
     tank = [o for o in over if o.startswith("walls.tanks=")][0]
     return float(tank.split("size=[")[1].split(",")[0])
-
-
-def _step_log(run_file):
-    from fsi_sph.output import read_steps
-
-    return read_steps(run_file)
 
 
 def _plot_deposits(deposits, path):

@@ -30,15 +30,14 @@ def measure(sim, run_file):
     t, f = probe_before_landing(run_file, "body_force")
     late = t >= t[-1] - WINDOW
     drag, lift = float(np.mean(f["fx"][late])), float(np.mean(f["fy"][late]))
+    viscous = float(np.mean(f["fx_viscous"][late]))  # skin friction; the rest is pressure
     _, c = probe_before_landing(run_file, "cylinder_force")
     errors = {"drag_mean_pct": 100.0 * (drag - DRAG) / DRAG,
               "lift_mean_pct": 100.0 * (lift - LIFT) / LIFT}
     values = {"drag_N_per_m": drag, "lift_N_per_m": lift,
               "drag_std_N_per_m": float(np.std(f["fx"][late])),
               "lift_std_N_per_m": float(np.std(f["fy"][late])),
-              # skin friction (the viscous pair terms) and pressure drag apart
-              "drag_viscous_N_per_m": float(np.mean(f["fx_viscous"][late])),
-              "drag_pressure_N_per_m": drag - float(np.mean(f["fx_viscous"][late])),
+              "drag_viscous_N_per_m": viscous, "drag_pressure_N_per_m": drag - viscous,
               "cylinder_drag_N_per_m": float(np.mean(c["fx"][late])),
               "cylinder_lift_N_per_m": float(np.mean(c["fy"][late])),
               "window_s": WINDOW, "t_end_s": float(t[-1])}

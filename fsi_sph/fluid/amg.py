@@ -27,6 +27,8 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from numba import njit, prange
 
+from fsi_sph.neighbors import transpose_order
+
 
 def seeded_build(build, *args, **kwargs):
     """``build(*args, **kwargs)`` with numpy's global random state fixed, then restored.
@@ -292,25 +294,11 @@ def take_rows(indptr, indices, data, old):
     return ptr, out_indices, out_data
 
 
-@njit(cache=True)
 def transpose(indptr, indices, data, n_cols):
-    """CSR arrays of the transpose (a counting sort: each row of the result sorted by
-    column)."""
-    ptr = np.zeros(n_cols + 1, dtype=np.int64)
-    for k in range(len(indices)):
-        ptr[indices[k] + 1] += 1
-    for c in range(n_cols):
-        ptr[c + 1] += ptr[c]
-    fill = ptr[:-1].copy()
-    out_indices = np.empty(len(indices), dtype=indices.dtype)
-    out_data = np.empty(len(indices), dtype=np.float64)
-    for r in range(len(indptr) - 1):
-        for k in range(indptr[r], indptr[r + 1]):
-            e = fill[indices[k]]
-            out_indices[e] = r
-            out_data[e] = data[k]
-            fill[indices[k]] += 1
-    return ptr, out_indices, out_data
+    """CSR arrays of the transpose, each row sorted by column
+    (:func:`fsi_sph.neighbors.transpose_order`)."""
+    t_start, t_idx, perm = transpose_order(indptr, indices, n_cols)
+    return t_start, t_idx, data[perm]
 
 
 class _Csr:
