@@ -309,19 +309,19 @@ class _Csr:
             M = sp.csr_matrix(M)  # (a CSR matrix known to be sorted is read as it is)
             if not M.has_sorted_indices:
                 M.sort_indices()
-        self.indptr = np.ascontiguousarray(M.indptr, dtype=np.int32)
-        self.indices = np.ascontiguousarray(M.indices, dtype=np.int32)
-        self.data = np.ascontiguousarray(M.data, dtype=np.float64)
-        self.shape = M.shape
+        self._set(M.indptr, M.indices, M.data, M.shape)
+
+    def _set(self, indptr, indices, data, shape):
+        self.indptr = np.ascontiguousarray(indptr, dtype=np.int32)
+        self.indices = np.ascontiguousarray(indices, dtype=np.int32)
+        self.data = np.ascontiguousarray(data, dtype=np.float64)
+        self.shape = shape
 
     @classmethod
     def from_arrays(cls, indptr, indices, data, shape):
         """From CSR arrays whose rows are already sorted by column."""
         c = cls.__new__(cls)
-        c.indptr = np.ascontiguousarray(indptr, dtype=np.int32)
-        c.indices = np.ascontiguousarray(indices, dtype=np.int32)
-        c.data = np.ascontiguousarray(data, dtype=np.float64)
-        c.shape = shape
+        c._set(indptr, indices, data, shape)
         return c
 
     def matvec(self, x, out=None):

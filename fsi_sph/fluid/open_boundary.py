@@ -183,11 +183,10 @@ class OpenBoundaries:
         """The outflow buffer rows of the assembled solve ``A p = rhs`` become ``p = p_out``
         (rows ``first_row + n_in ..``; in place, the diagonal scaled like the other rows)."""
         rows = first_row + self.n_in + np.arange(len(self.x_out))
-        lo, hi = A.indptr[rows].astype(np.int64), A.indptr[rows + 1].astype(np.int64)
-        count = hi - lo
-        row = np.repeat(rows, count)  # the rows' entries, row by row
-        at = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count) + np.repeat(
-            lo, count)
+        if not len(rows):
+            return
+        at = slice(A.indptr[rows[0]], A.indptr[rows[-1] + 1])  # consecutive rows: one range
+        row = np.repeat(rows, np.diff(A.indptr[rows[0]:rows[-1] + 2]))
         A.data[at] = np.where(A.indices[at] == row, diag_ref, 0.0)
         rhs[rows] = diag_ref * self.p_out[self.out_of]
 

@@ -280,7 +280,6 @@ def test_remap_keeps_the_rows_that_stay_and_zeroes_the_new_ones():
     assert rel <= 1e-8
 
 
-
 def test_remap_gives_the_arrays_of_the_sparse_products():
     """The row gather of :func:`amg.take_rows` gives, array for array, what the sparse
     products ``diag(kept) P[take]`` and ``R[:, take] diag(kept)`` gave (the implementation it
