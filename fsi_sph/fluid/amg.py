@@ -309,9 +309,10 @@ class _Csr:
             M = sp.csr_matrix(M)  # (a CSR matrix known to be sorted is read as it is)
             if not M.has_sorted_indices:
                 M.sort_indices()
-        self._set(M.indptr, M.indices, M.data, M.shape)
+        self.set_arrays(M.indptr, M.indices, M.data, M.shape)
 
-    def _set(self, indptr, indices, data, shape):
+    def set_arrays(self, indptr, indices, data, shape):
+        """Hold the CSR arrays contiguous and typed for the numba loops."""
         self.indptr = np.ascontiguousarray(indptr, dtype=np.int32)
         self.indices = np.ascontiguousarray(indices, dtype=np.int32)
         self.data = np.ascontiguousarray(data, dtype=np.float64)
@@ -321,7 +322,7 @@ class _Csr:
     def from_arrays(cls, indptr, indices, data, shape):
         """From CSR arrays whose rows are already sorted by column."""
         c = cls.__new__(cls)
-        c._set(indptr, indices, data, shape)
+        c.set_arrays(indptr, indices, data, shape)
         return c
 
     def matvec(self, x, out=None):
