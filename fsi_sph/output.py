@@ -120,8 +120,8 @@ class RunWriter:
                 g = f["snapshots"][name]
                 if g.attrs["t"] > t + eps:
                     del f["snapshots"][name]
-                    if f"xdmf/{name}" in f:
-                        del f[f"xdmf/{name}"]
+                    if f"xdmf/snapshots/{name}" in f:  # (its 3-vectors: _write_xyz)
+                        del f[f"xdmf/snapshots/{name}"]
                     continue
                 _write_xyz(f, f"snapshots/{name}")  # a file written before they existed
                 shapes = {b: {k: g[b][k].shape for k in g[b]} for b in g}

@@ -131,7 +131,7 @@ class Simulation:
         if fluid is not None:
             if fluid.open is not None:  # particles across the open lines; buffer velocities
                 # (first: the structures' rows are laid out after the new fluid count)
-                self._timed("open_boundaries", fluid.exchange_open_boundaries, self.t, dt)
+                self._timed("open_boundaries", self.exchange_open_boundaries, self.t, dt)
             if coupling is not None:
                 coupling.before_fluid()
             self._timed("neighbours", fluid.update_neighbors)
@@ -153,6 +153,11 @@ class Simulation:
         self.t += dt
         self.n_steps += 1
         return dt, n_sub
+
+    def exchange_open_boundaries(self, t, dt):
+        """The fluid's open boundaries at the start of the step ``t -> t + dt`` (over ranks:
+        :meth:`RankSimulation.exchange_open_boundaries`)."""
+        self.fluid.exchange_open_boundaries(t, dt)
 
     # ------------------------------------------------------------------ guard, state
     writes_output = True  # this process writes the run file (fsi_sph/parallel/ranks.py)

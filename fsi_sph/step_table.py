@@ -14,6 +14,8 @@ class StepTable:
         self.dt_limits = fluid is not None and fluid.viscous is not None
         # open boundaries: the fluid's count and the mass that entered and left per step
         self.open = fluid is not None and fluid.open is not None
+        # the fluid's particle count (a fluid split over ranks counts every rank's)
+        self.fluid_count = (lambda: fluid.nf) if fluid is not None else None
 
     @property
     def columns(self):
@@ -44,5 +46,5 @@ class StepTable:
         if self.coupling is not None:
             row += [self.coupling.power_structure, self.coupling.power_fluid]
         if self.open:
-            row += [self.fluid.nf, *self.fluid.mass_flux()]
+            row += [self.fluid_count(), *self.fluid.mass_flux()]
         return row

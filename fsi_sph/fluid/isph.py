@@ -153,14 +153,20 @@ class IncompressibleFluid(FluidParticles):
         keep, new_x, new_v, new_p, p_buffer = op.exchange(
             self.body["x"], self.body["v"], p_buffer, self.rho * self.dx * self.dx)
         if len(new_x) or not keep.all() or len(p_buffer) != self.n_walls - self.n_fixed:
-            old_rows = self.rows_before_exchange(keep)
+            old_rows = self.rows_before_exchange(keep, op.joined_rows)
             self.relayout(keep, new_x, new_v, new_p, p_buffer)
             self.resized()
             self.pressure.ppe.remap(old_rows)
-        op.set_velocities(t, dt, self.body["x"], self.body["v"], self.kernel)
+        self.buffer_velocities(t, dt)
+
+    def buffer_velocities(self, t, dt, fluid_corner=None):
+        """The buffers' velocities for the step ``t -> t + dt``
+        (:meth:`OpenBoundaries.set_velocities`) and their stacked rows."""
+        self.open.set_velocities(t, dt, self.body["x"], self.body["v"], self.kernel,
+                                 fluid_corner)
         self.buffer_rows()
 
-    def rows_before_exchange(self, keep):
+    def rows_before_exchange(self, keep, joined_rows):
         """For each stacked row after the exchange (``[fluid | walls | inflow | outflow |
         structures]``), its row before it: the kept fluid rows; each new fluid particle the
         row of the inflow buffer particle it was (the same place: that buffer particle
@@ -170,13 +176,17 @@ class IncompressibleFluid(FluidParticles):
         for a new particle, an empty row of the interpolation, the CFD2 channel rebuilt its
         hierarchy at 226 of its first 600 steps; with the buffer particle's row, at 42, and
         took 13.2 instead of 16.1 iterations a step: docs/numerics/fluid.md § Open
-        boundaries.)"""
+        boundaries.)
+
+        ``keep``: one entry per fluid row before the exchange; ``joined_rows``: the fluid
+        rows that joined the outflow buffer, in its order. (A fluid split over ranks passes
+        the whole fluid's, fsi_sph/parallel/open_ranks.py.)"""
         op = self.open
-        nf, n_fixed, n_in = self.nf, self.n_fixed, op.n_in
+        nf, n_fixed, n_in = len(keep), self.n_fixed, op.n_in
         return np.concatenate([
             np.flatnonzero(keep), nf + n_fixed + op.crossed,
             nf + np.arange(n_fixed + n_in),
-            nf + n_fixed + n_in + np.flatnonzero(op.stay), op.joined_rows,
+            nf + n_fixed + n_in + np.flatnonzero(op.stay), joined_rows,
             nf + self.n_walls + np.arange(self.ns)])
 
     def buffer_rows(self):

@@ -115,6 +115,13 @@ class OpenBoundaries:
         beyond = self._line_of(x, self.out_line, self.out_y, 0.0, self.depth) >= 0
         return behind | beyond
 
+    def leaving(self, x_fluid):
+        """The fluid particles that leave the fluid at the next :meth:`exchange`: past an
+        outflow line (they join its buffer) or back through an inflow line (deleted)."""
+        past = self._line_of(x_fluid, self.out_line, self.out_y, 0.0, math.inf) >= 0
+        back = self._line_of(x_fluid, self.in_line, self.in_y, -math.inf, 0.0) >= 0
+        return past | back
+
     # ------------------------------------------------------------------ the step
     def exchange(self, x_fluid, v_fluid, p_buffer, mass):
         """Particles that crossed a line during the last move: inflow buffer particles past
@@ -135,11 +142,10 @@ class OpenBoundaries:
         new_p = p_buffer[:n_in][crossed].copy()
         self.x_in[crossed, 0] -= self.depth
         leaving = self._line_of(x_fluid, self.out_line, self.out_y, 0.0, math.inf)
-        back = self._line_of(x_fluid, self.in_line, self.in_y, -math.inf, 0.0) >= 0
         gone = self.x_out[:, 0] >= self.out_line[self.out_of] + self.depth
         stay = ~gone
         joined = leaving >= 0
-        self.keep = keep = ~(joined | back)
+        self.keep = keep = ~self.leaving(x_fluid)
         self.stay = stay
         self.joined_rows = np.flatnonzero(joined)
         self.x_out = np.vstack([self.x_out[stay], x_fluid[joined]])
@@ -147,15 +153,17 @@ class OpenBoundaries:
         self.v_out = np.vstack([self.v_out[stay], v_fluid[joined]])
         p_out = np.concatenate([p_buffer[n_in:][stay], self.p_out[leaving[joined]]])
         self.mass_in = mass * float(np.count_nonzero(crossed))
-        self.mass_out = mass * float(np.count_nonzero(joined) + np.count_nonzero(back))
+        self.mass_out = mass * float(np.count_nonzero(~keep))
         return keep, new_x, new_v, new_p, np.concatenate([p_buffer[:n_in], p_out])
 
-    def set_velocities(self, t, dt, x_fluid, v_fluid, kind):
+    def set_velocities(self, t, dt, x_fluid, v_fluid, kind, fluid_corner=None):
         """Buffer velocities for the step ``t -> t + dt``: the inflow profile at ``t + dt``
         (the velocity the boundary rows carry at the step's end) and its rate of change over
         the step; the outflow's zero-gradient extrapolation from the fluid (Shepard average
         at the mirror image about the line; a particle without fluid there keeps its
-        velocity)."""
+        velocity). ``fluid_corner``: the lower corner of the whole fluid when ``x_fluid``
+        holds part of it (a fluid split over ranks), so that the neighbour search's cell
+        grid, and with it the order of each Shepard sum, is the whole fluid's."""
         for k, u in enumerate(self.profiles):
             rows = self.in_of == k
             y = self.x_in[rows, 1]
@@ -167,7 +175,11 @@ class OpenBoundaries:
             return
         mirror = self.x_out.copy()
         mirror[:, 0] = 2.0 * self.out_line[self.out_of] - mirror[:, 0]
-        start, j = find_neighbors(mirror, x_fluid, SUPPORT * self.h)
+        radius = SUPPORT * self.h
+        origin = None
+        if fluid_corner is not None:  # (find_neighbors' own corner, over the whole fluid)
+            origin = np.minimum(np.min(mirror, axis=0), fluid_corner) - radius
+        start, j = find_neighbors(mirror, x_fluid, radius, origin=origin)
         out = np.empty(len(mirror))
         for c in range(2):
             K.shepard_at(mirror, x_fluid, np.ascontiguousarray(v_fluid[:, c]), start, j,

@@ -55,6 +55,9 @@ class BlockPressureSolver:
     def remap(self, old_of_new):
         """Rows renumbered: PETSc keeps what it can (its own checks)."""
 
+    def remap_rows(self, old_of_new):
+        """The global rows renumbered (open boundaries): PETSc keeps what it can."""
+
     def reset(self):
         """At a snapshot: the preconditioner is built anew at the next solve."""
         self.petsc.reuse.age = self.petsc.cfg.rebuild_every

@@ -57,7 +57,14 @@ class GatheredPressureSolver:
         self.node_ranks = ranks_on_this_node(comm)
 
     def remap(self, old_of_new):
-        """Rows renumbered: the hierarchy on rank 0 is kept for the global rows."""
+        """A rank's stacked rows renumbered: the global rows (and rank 0's hierarchy) are
+        not (:meth:`remap_rows` is)."""
+
+    def remap_rows(self, old_of_new):
+        """The global rows renumbered (open boundaries: ``old_of_new``, the whole fluid's
+        map, on every rank): rank 0's hierarchy follows, as in a serial run."""
+        if self.serial is not None:
+            self.serial.remap(old_of_new)
 
     def reset(self):
         """At a snapshot (bit-identical restart): rank 0 drops its hierarchy."""

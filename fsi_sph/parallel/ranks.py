@@ -26,8 +26,8 @@ every rank holds all of them, the structures sub-cycled on every rank from the s
 each wall or structure particle is owned, as a row of the PPE, for the structure's
 interface force and for the free bodies' rigid-body terms (:mod:`.low_rank`), by the rank
 of its strip; the implicit viscous step is gathered to rank 0, :mod:`.viscous_gather`), and
-Drucker-Prager soils alone (:mod:`.split`). A fluid with a soil, open boundaries and
-periodic images are not split yet (:func:`check_scene`).
+Drucker-Prager soils alone (:mod:`.split`). A fluid with a soil and periodic images are not
+split yet (:func:`check_scene`).
 """
 
 from __future__ import annotations
@@ -39,6 +39,7 @@ import numpy as np
 
 from fsi_sph.errors import SimulationError
 from fsi_sph.parallel.comm import gather_rows, global_reduce
+from fsi_sph.parallel.open_ranks import exchange_open
 from fsi_sph.parallel.ppe_blocks import numbering, petsc_numbering
 from fsi_sph.parallel.ppe_gather import GatheredPressureSolver, RowNumbering
 from fsi_sph.parallel.split import BodyOnRanks, SoilOnRanks, replace_rows
@@ -51,7 +52,11 @@ from fsi_sph.sph.kernels import SUPPORT
 HALO_SUPPORTS = 4
 #: the same for a fluid with a viscosity law or the implicit viscous step, whose step reads
 #: neighbours' results more times over (the granular collapse on 2 ranks: 5 supports
-#: repeat the serial run bit for bit over 100 steps, 4 do not)
+#: repeat the serial run bit for bit over 100 steps, 4 do not), and for a fluid with open
+#: boundaries, whose viscous term reads the walls' no-slip velocity, itself a Shepard average
+#: of the fluid (Turek-Hron FSI2 at D/dx 10 on 2 ranks, 100 steps: 4 supports part from the
+#: serial run at step 50 by one rounding in div u* of a particle beside the cut; 5 and 6
+#: repeat it bit for bit)
 HALO_SUPPORTS_VISCOUS = 6
 #: how far (kernel supports) an owned particle may stray outside its strip before the
 #: particles move to their strips' ranks: the halos above are one support deeper than
@@ -61,9 +66,10 @@ STRAY_SUPPORTS = 1
 
 def halo_supports(sim):
     """The halo depth the scene's fluid needs (:data:`HALO_SUPPORTS` or, with a viscosity
-    law or the implicit viscous step, :data:`HALO_SUPPORTS_VISCOUS`)."""
+    law, the implicit viscous step or open boundaries, :data:`HALO_SUPPORTS_VISCOUS`)."""
     fl = sim.fluid
-    return HALO_SUPPORTS_VISCOUS if fl is not None and fl.viscous is not None else HALO_SUPPORTS
+    deep = fl is not None and (fl.viscous is not None or fl.open is not None)
+    return HALO_SUPPORTS_VISCOUS if deep else HALO_SUPPORTS
 
 
 #: how the PPE of a split fluid is solved: gathered to rank 0 (ppe_gather.py) or by PETSc
@@ -109,8 +115,6 @@ def not_split(sim):
         missing.append("structures without a fluid (" + ", ".join(solids) + ")")
     if fl is not None and len(solids) < len(sim.structures):
         missing.append("a fluid and a soil together")
-    if fl is not None and fl.open is not None:
-        missing.append("open boundaries")
     if fl is not None and fl.periodic is not None:
         missing.append("periodic fluid")
     return missing
@@ -131,7 +135,7 @@ def set_fluid_rows(fl, arrays):
     with the walls' rows carried over (:meth:`FluidParticles.restack`) and the parts' work
     arrays follow the new count."""
     replace_rows(fl.body, arrays)
-    fl.restack(np.zeros(0))
+    fl.restack(fl.p_all[fl.nf + fl.n_fixed:fl.nf + fl.n_walls].copy())  # (the buffers')
     fl.resized()
 
 
@@ -144,9 +148,7 @@ class FluidOnRanks(BodyOnRanks):
         super().__init__(comm, fl, halo_supports * SUPPORT * fl.h,
                          STRAY_SUPPORTS * SUPPORT * fl.h)
         self.fluid = fl
-        self.nf_global = fl.nf
         self.x_walls = fl.x_all[fl.nf:fl.nf + fl.n_fixed].copy()
-        self.n_boundary = fl.n_fixed + fl.ns  # the boundary rows: walls, then structures
         self.engine = ppe_engine(ppe)
         if self.engine == "petsc":
             from fsi_sph.parallel.ppe_blocks import BlockPressureSolver
@@ -162,16 +164,29 @@ class FluidOnRanks(BodyOnRanks):
         self.x_start = None  # the rows' positions at the start of the last step
         self.wall_own = None
 
+    @property
+    def nf_global(self):
+        """The number of fluid particles over all ranks."""
+        return self.n_global
+
+    @property
+    def n_boundary(self):
+        """The number of boundary rows: fixed walls, open boundaries' buffers, structures."""
+        return self.fluid.n_walls + self.fluid.ns
+
     def boundary_x(self):
-        """The boundary rows' positions: the fixed walls and the structures, which every
-        rank holds whole (the structures as they stand at the start of the step)."""
-        return np.vstack([self.x_walls, *[s.body["x"] for s in self.fluid.structures]])
+        """The boundary rows' positions: the fixed walls, the open boundaries' buffers and
+        the structures, which every rank holds whole (the structures as they stand at the
+        start of the step)."""
+        fl = self.fluid
+        buffers = [fl.open.positions()] if fl.open is not None else []
+        return np.vstack([self.x_walls, *buffers, *[s.body["x"] for s in fl.structures]])
 
     def owned_structure_rows(self, values):
         """Per structure particle, ``values`` (one row each) as the rank that owns the
         particle computed them (its fluid neighbours are all its own particles or exact
         ghosts, in the serial order); collective."""
-        mine = self.wall_own[self.x_walls.shape[0]:]
+        mine = self.wall_own[self.fluid.n_walls:]
         return gather_rows(self.comm, np.flatnonzero(mine), values[mine], len(values))
 
     def fluid_power(self, force, velocity):
@@ -220,11 +235,16 @@ class FluidOnRanks(BodyOnRanks):
     def distribute(self):
         """:meth:`BodyOnRanks.distribute`, then the PPE's global numbering of the rows."""
         own, ghost = super().distribute()
+        self.rows_numbered(own, ghost)
+
+    def rows_numbered(self, own, ghost):
+        """After the rows were laid out (:meth:`lay_out`): the carried increments, the
+        step's start positions and the PPE's global numbering of the rows."""
         if "phi" in own:
             self.carried_increment(own, ghost)
         self.x_start = self.fluid.body["x"].copy()
         self.wall_own = self.wall_owner == self.comm.rank
-        self.fluid.pressure.boundary.owned_structures = self.wall_own[self.x_walls.shape[0]:]
+        self.fluid.pressure.boundary.owned_structures = self.wall_own[self.fluid.n_walls:]
         if self.engine == "petsc":
             prow = np.concatenate([own["prow"], ghost["prow"]])[self.order]
             self.ppe.rows = numbering(prow, self.wall_rows, self.is_own, self.wall_own,
@@ -308,6 +328,8 @@ class RankSimulation(Simulation):
                                             STRAY_SUPPORTS * SUPPORT * body.h)
                           for name, body in self.structures.items()}
         self.ranks = next(iter(self.split.values()))
+        if self.fluid is not None:  # the step table's fluid count: every rank's particles
+            self.step_table.fluid_count = lambda: self.split["fluid"].n_global
         if self.coupling is not None:  # the structures: whole on every rank
             self.coupling.owned_rows = self.ranks.owned_structure_rows
             self.coupling.fluid_power = self.ranks.fluid_power
@@ -361,6 +383,10 @@ class RankSimulation(Simulation):
                                                 "max")[0])
         return limits, dt
 
+    def exchange_open_boundaries(self, t, dt):
+        """The open boundaries over the ranks (:mod:`.open_ranks`). Collective."""
+        exchange_open(self.split["fluid"], t, dt)
+
     def step(self, dt_max=math.inf, to_end=False):
         """One step of every rank's particles (:meth:`Simulation.step` on the rank's own
         particles and ghosts); the particle-steps counted are the owned ones over all
@@ -370,8 +396,8 @@ class RankSimulation(Simulation):
             part.distribute()
         self.timings["exchange"] += time.perf_counter() - t0
         self.viewed = None
-        local = {name: part.obj.body.n for name, part in self.split.items()}
         dt, n_sub = super().step(dt_max, to_end)
+        local = {name: part.obj.body.n for name, part in self.split.items()}  # (the step's)
         self.particle_steps += sum((part.n_global - local[name]) * n_sub.get(name, 1)
                                    for name, part in self.split.items())
         for part in self.split.values():

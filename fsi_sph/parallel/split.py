@@ -47,6 +47,7 @@ class BodyOnRanks:
         """This rank's particles taken from the body when it holds every particle in
         global-id order (at the start, after a restart's state was loaded)."""
         b = self.obj.body
+        self.n_global = b.n
         mine = self.strips.owner(b["x"]) == self.comm.rank
         self.own = {k: a[mine].copy() for k, a in b.arrays.items()}
         self.own["gid"] = np.flatnonzero(mine).astype(np.int64)
@@ -64,6 +65,13 @@ class BodyOnRanks:
         if rebalance or self.strayed():
             own = migrate(comm, self.strips, self.own)
             self.migrations += 1
+        return self.lay_out(own)
+
+    def lay_out(self, own):
+        """The owned particles ``own`` (a dict of fields with ``gid``) and the ghosts copied
+        anew from their owners laid out in the body in global-id order; returns ``(own,
+        ghost)``. Collective."""
+        comm = self.comm
         own = self.numbered(own)
         self.halo = Halo.build(comm, self.strips, own["x"], self.width)
         ghost = {}

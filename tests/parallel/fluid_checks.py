@@ -1,11 +1,11 @@
 """Run under ``mpiexec -n P``: a scene stepped on P ranks against the serial run.
 
 ``python tests/parallel/fluid_checks.py [--case CASE] --steps N --dx DX --halo S
-[--identical] [--ppe gather|petsc]``: every rank steps its strips
+[--identical] [--ppe gather|petsc] [--set KEY=VALUE ...]``: every rank steps its strips
 (:class:`fsi_sph.parallel.ranks.RankSimulation`, halo ``S`` kernel supports); rank 0 also
 runs the serial scene and compares every field of every particle of each split body (the
-dam break's fluid and the walls' pressure; a soil scene's soils) and of every structure
-after ``N`` steps. Prints
+dam break's fluid and the walls' pressure; a soil scene's soils), of every structure and
+of the open boundaries' buffers after ``N`` steps. Prints
 the largest differences; exits 1 when ``--identical`` is asked and a field differs in any
 bit (or, without it, a position by more than 1e-7 of the domain size or the clock by more
 than 1e-7 of itself).
@@ -45,10 +45,11 @@ def main(argv=None):
     ap.add_argument("--halo", type=float, default=None)
     ap.add_argument("--identical", action="store_true")
     ap.add_argument("--ppe", default="gather", help="auto, petsc or gather")
+    ap.add_argument("--set", action="append", default=[], help="KEY=VALUE of the case")
     args = ap.parse_args(argv)
     comm = MPI.COMM_WORLD
     case = Path(args.case) if Path(args.case).is_file() else CASES / args.case
-    sets = [f"case.dx={args.dx}"]
+    sets = [f"case.dx={args.dx}", *args.set]
     kw = {"ppe": args.ppe} if args.halo is None else {"halo": args.halo,
                                                       "ppe": args.ppe}
     par = RankSimulation(load_config(case, sets), comm, **kw)
@@ -60,6 +61,8 @@ def main(argv=None):
             got.update({f"{name}.{k}": a.copy() for k, a in body.body.arrays.items()})
     if par.fluid is not None:
         got["walls.p"] = par.fluid.walls.body["p"].copy()
+    if par.fluid is not None and par.fluid.open is not None:
+        got.update({f"open.{k}": np.asarray(v) for k, v in par.fluid.open.state().items()})
     n_own = comm.gather(len(par.ranks.own["gid"]), root=0)
     if comm.rank != 0:
         return 0
@@ -67,10 +70,12 @@ def main(argv=None):
     for _ in range(args.steps):
         ser.step()
     bodies = ser.bodies()
+    buffers = ser.fluid.open.state() if ser.fluid is not None and ser.fluid.open else {}
     want = {k: (ser.fluid.walls.body["p"] if k == "walls.p" else
+                np.asarray(buffers[k[5:]]) if k.startswith("open.") else
                 bodies[k.split(".")[0]].body[k.split(".", 1)[1]]) for k in got}
     worst = {k: float(np.max(np.abs(got[k].astype(float) - want[k].astype(float)), initial=0))
-             for k in got}
+             if got[k].shape == want[k].shape else np.inf for k in got}
     same = all(np.array_equal(got[k], want[k]) for k in got)
     engine = getattr(par.ranks, "engine", "-")
     print(f"ranks {comm.size} ({engine}): owned {n_own}, rebalanced {par.ranks.rebalanced}, "

@@ -10,6 +10,7 @@ import h5py
 import numpy as np
 import pytest
 
+from fsi_sph.__main__ import main
 from fsi_sph.config import load_config
 from fsi_sph.simulation import Simulation
 from tests.unit.test_cli_long_runs import TANK
@@ -97,3 +98,28 @@ def test_paraview_reads_3_vectors_and_glyphs_them(run_file, tmp_path):
         assert np.allclose(ranges[0], [v[:, 0].min(), v[:, 0].max()], rtol=1e-6, atol=1e-7)
     assert seen[(len(snap["post"]["x"]), "von_mises")][0] == 1
     assert glyphs[0] == "glyph points" and glyphs[1] > 0
+
+
+def xdmf_vectors(path):
+    with h5py.File(path, "r") as f:
+        out = {}
+        f["xdmf"].visititems(lambda k, o: out.update({k: o[()]}) if isinstance(
+            o, h5py.Dataset) else None)
+        return out
+
+
+def test_a_restarted_run_writes_the_uninterrupted_runs_vectors(tmp_path):
+    """A run stopped past a snapshot and restarted writes, for each later snapshot, the
+    3-vectors of that snapshot (the restart drops the stopped run's later snapshots and
+    their 3-vectors; before, the 3-vectors were left behind, and a later snapshot of the
+    same number kept the stopped run's values, or another particle count)."""
+    case = tmp_path / "tank.toml"
+    case.write_text(SCENE.replace("t_end = 0.004", "t_end = 0.008"))
+    assert main(["run", str(case), "--out", str(tmp_path / "whole"), "--no-progress"]) == 0
+    assert main(["run", str(case), "--out", str(tmp_path / "cut"), "--no-progress",
+                 "--max-steps", "7"]) == 0
+    assert main(["run", "--restart", str(tmp_path / "cut" / "run.h5"), "--no-progress"]) == 0
+    whole, cut = xdmf_vectors(tmp_path / "whole" / "run.h5"), xdmf_vectors(
+        tmp_path / "cut" / "run.h5")
+    assert sorted(whole) == sorted(cut)
+    assert [k for k in whole if not np.array_equal(whole[k], cut[k])] == []
