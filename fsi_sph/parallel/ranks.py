@@ -104,8 +104,8 @@ def engine_text(choice="auto"):
 
 def not_split(sim):
     """What a scene holds that is not split over ranks yet (empty: every part is). Split: a
-    fluid (Newtonian or granular) with its fixed walls, coupled structures and free bodies
-    (fixed or shaken tank), or Drucker-Prager soils alone."""
+    fluid (Newtonian or granular) with its fixed walls, coupled structures, free bodies and
+    open boundaries (fixed or shaken tank), or Drucker-Prager soils alone."""
     fl = sim.fluid
     missing = []
     solids = [n for n, b in sim.structures.items() if b.body.kind != "soil"]
