@@ -115,12 +115,18 @@ class OpenBoundaries:
         beyond = self._line_of(x, self.out_line, self.out_y, 0.0, self.depth) >= 0
         return behind | beyond
 
+    def _past_outflow(self, x_fluid):
+        """Index of the outflow line each fluid particle has passed, -1 for none."""
+        return self._line_of(x_fluid, self.out_line, self.out_y, 0.0, math.inf)
+
+    def _back_through_inflow(self, x_fluid):
+        """The fluid particles that went back through an inflow line."""
+        return self._line_of(x_fluid, self.in_line, self.in_y, -math.inf, 0.0) >= 0
+
     def leaving(self, x_fluid):
         """The fluid particles that leave the fluid at the next :meth:`exchange`: past an
         outflow line (they join its buffer) or back through an inflow line (deleted)."""
-        past = self._line_of(x_fluid, self.out_line, self.out_y, 0.0, math.inf) >= 0
-        back = self._line_of(x_fluid, self.in_line, self.in_y, -math.inf, 0.0) >= 0
-        return past | back
+        return (self._past_outflow(x_fluid) >= 0) | self._back_through_inflow(x_fluid)
 
     # ------------------------------------------------------------------ the step
     def exchange(self, x_fluid, v_fluid, p_buffer, mass):
@@ -141,11 +147,11 @@ class OpenBoundaries:
         new_v = self.v_in[crossed].copy()
         new_p = p_buffer[:n_in][crossed].copy()
         self.x_in[crossed, 0] -= self.depth
-        leaving = self._line_of(x_fluid, self.out_line, self.out_y, 0.0, math.inf)
+        leaving = self._past_outflow(x_fluid)
         gone = self.x_out[:, 0] >= self.out_line[self.out_of] + self.depth
         stay = ~gone
         joined = leaving >= 0
-        self.keep = keep = ~self.leaving(x_fluid)
+        self.keep = keep = ~(joined | self._back_through_inflow(x_fluid))
         self.stay = stay
         self.joined_rows = np.flatnonzero(joined)
         self.x_out = np.vstack([self.x_out[stay], x_fluid[joined]])

@@ -90,10 +90,9 @@ def buffer_velocities(ranks, t, dt):
     buffer particle's from the rank whose strip holds it. Collective."""
     fl = ranks.fluid
     op = fl.open
-    own_x = fl.body["x"][ranks.is_own]
-    corner = np.min(own_x, axis=0) if len(own_x) else np.full(2, np.inf)
-    corner = global_reduce(ranks.comm, corner, "min")
-    fl.buffer_velocities(t, dt, corner)
+    x = fl.body["x"]  # (every local row is some rank's particle: the ranks' least is the fluid's)
+    corner = np.min(x, axis=0) if len(x) else np.full(2, np.inf)
+    fl.buffer_velocities(t, dt, global_reduce(ranks.comm, corner, "min"))
     if len(op.x_out):
         mine = np.flatnonzero(ranks.strips.owner(op.x_out) == ranks.comm.rank)
         op.v_out = gather_rows(ranks.comm, mine, op.v_out[mine], len(op.x_out))
